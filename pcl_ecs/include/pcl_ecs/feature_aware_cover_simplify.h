@@ -1,0 +1,123 @@
+// feature_aware_cover_simplify.h — the paper's whole method as a drop-in pcl::Filter.
+//
+//   pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> ecs;   // where pcl::VoxelGrid stood
+//   ecs.setInputCloud(cloud);
+//   ecs.setErrorThreshold(1e-3);   // T_err, a fraction of the bounding-box diagonal
+//   ecs.setFeatureFactor(6.0);     // α
+//   ecs.filter(*simplified);
+//   const pcl_ecs::Result& r = ecs.getResult();  // labels, balls, mapping, timings
+#pragma once
+
+#include <pcl_ecs/parameters.h>
+#include <pcl_ecs/result.h>
+#include <pcl_ecs/simplify_core.h>
+
+#include <pcl/filters/filter.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+namespace pcl_ecs
+{
+
+/** \brief Feature-preserving, error-controllable simplification (the paper's method) as a
+ * pcl::Filter: feature points (eq. 3-4) are kept as they are; every other region is covered by
+ * balls as large as the quadric error bound T_err allows (eq. 13-15), each replaced by one
+ * optimised point. Representatives are new points, so this derives from pcl::Filter, not
+ * pcl::FilterIndices.
+ *
+ * Contract (as pcl::VoxelGrid): honours setIndices; skips non-finite points; the output is
+ * unorganised (height 1), dense, with the input's header; on any error the output is cleared and
+ * PCL_ERROR says why. Feature points come first in the output, in input order, then one
+ * representative per ball in the order the balls were made.
+ */
+template <typename PointT>
+class FeatureAwareCoverSimplify : public pcl::Filter<PointT>
+{
+public:
+  using Ptr = std::shared_ptr<FeatureAwareCoverSimplify<PointT>>;
+  using ConstPtr = std::shared_ptr<const FeatureAwareCoverSimplify<PointT>>;
+  using PointCloud = typename pcl::Filter<PointT>::PointCloud;
+
+  /** \brief A filter with the documented defaults (Parameters). */
+  FeatureAwareCoverSimplify() { this->filter_name_ = "FeatureAwareCoverSimplify"; }
+
+  /** \brief Set all parameters at once (validated when filter() runs). */
+  void setParameters(const Parameters& params) { params_ = params; }
+  /** \brief All parameters. */
+  const Parameters& getParameters() const { return params_; }
+
+  /** \brief T_err, as a fraction of the bounding-box diagonal L; in (0, 1). Default 1e-3. */
+  void setErrorThreshold(double t_err) { params_.error_threshold = t_err; }
+  double getErrorThreshold() const { return params_.error_threshold; }
+
+  /** \brief α of eq. 4 (> 0): larger keeps fewer feature points. Default 6. */
+  void setFeatureFactor(double alpha) { params_.feature_factor = alpha; }
+  double getFeatureFactor() const { return params_.feature_factor; }
+
+  /** \brief K, the neighbourhood size of eq. 1, 2, 3, 7-12; in [5, 200]. Default 16. */
+  void setNeighborhoodSize(int k) { params_.k_neighbors = k; }
+  int getNeighborhoodSize() const { return params_.k_neighbors; }
+
+  /** \brief The error form of E(r) (eq. 14). Default ErrorForm::Normalized. */
+  void setErrorForm(ErrorForm form) { params_.error_form = form; }
+  ErrorForm getErrorForm() const { return params_.error_form; }
+
+  /** \brief Step 5 on or off. Default on. */
+  void setAdaptiveTolerance(bool on) { params_.adaptive = on; }
+  bool getAdaptiveTolerance() const { return params_.adaptive; }
+
+  /** \brief Step 5's factor, in [1, 100]. Default 2. */
+  void setAdaptiveFactor(double factor) { params_.adaptive_factor = factor; }
+  double getAdaptiveFactor() const { return params_.adaptive_factor; }
+
+  /** \brief Radius cap in multiples of the mean neighbourhood radius (RMS distance to the K
+   * neighbours), in (0, 1000]. Default 5. */
+  void setRadiusCapFactor(double factor) { params_.radius_cap_factor = factor; }
+  double getRadiusCapFactor() const { return params_.radius_cap_factor; }
+
+  /** \brief Seed of the centre order. Default 42 (fixed, never the clock). */
+  void setSeed(std::uint64_t seed) { params_.seed = seed; }
+  std::uint64_t getSeed() const { return params_.seed; }
+
+  /** \brief Use the input's normal_x/y/z instead of estimating normals (point types with
+   * normals only). Default false. */
+  void setUseInputNormals(bool use) { params_.use_input_normals = use; }
+  bool getUseInputNormals() const { return params_.use_input_normals; }
+
+  /** \brief Threads for the per-point stages, 0 = all. The output does not depend on it. */
+  void setNumberOfThreads(int threads) { params_.threads = threads; }
+  int getNumberOfThreads() const { return params_.threads; }
+
+  /** \brief Ask for about `size` output points instead of a T_err (0 turns it off). T_err is
+   * searched until the size is within 1%, or the closest size reachable. */
+  void setTargetSize(std::size_t size) { params_.target_size = size; }
+  std::size_t getTargetSize() const { return params_.target_size; }
+
+  /** \brief Progress reports during filter() (stage name, fraction). */
+  void setProgressCallback(ProgressCallback cb) { progress_ = std::move(cb); }
+
+  /** \brief What the last filter() did: labels, balls, mapping, summary. */
+  const Result& getResult() const { return result_; }
+
+protected:
+  using pcl::Filter<PointT>::input_;
+  using pcl::Filter<PointT>::indices_;
+  using pcl::Filter<PointT>::filter_name_;
+
+  /** \brief Validate, run the method, assemble the output. Never throws. */
+  void applyFilter(PointCloud& output) override;
+
+private:
+  /** \brief Our own validation: pcl's initCompute() is not virtual in PCL 1.13. */
+  bool validateForRun(std::string& why) const;
+
+  Parameters params_;
+  Result result_;
+  ProgressCallback progress_;
+};
+
+}  // namespace pcl_ecs
+
+#if defined(PCL_NO_PRECOMPILE) || defined(PCL_ECS_NO_PRECOMPILE)
+#include <pcl_ecs/impl/feature_aware_cover_simplify.hpp>
+#endif

@@ -1,0 +1,92 @@
+// pcl_ecs — feature-preserving, error-controllable point cloud simplification.
+// parameters.h: the one parameter set of the method, its defaults and its validator.
+// Every front end (the filter, pcd_simplify, the streaming path, the node, the viewer) fills this
+// struct and goes through validate(); nothing else decides what a valid value is.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+namespace pcl_ecs
+{
+
+/** \brief Which error function E(r) the radius solve uses (paper eq. 14).
+ *
+ * - Normalized: E(r) = sqrt(Q(x_min) / sum_j a_j G) / L, a weighted RMS distance from the
+ *   representative to the neighbours' tangent planes, as a fraction of L. Scale-free: T_err means
+ *   the same on every model and every unit.
+ * - Paper: E(r) = sqrt(Q(x_min)) / L, the paper's literal formula. It grows with the model's units
+ *   and with the number of points in the ball; use it to reproduce the paper's tables.
+ */
+enum class ErrorForm
+{
+  Normalized,
+  Paper
+};
+
+/** \brief Name of an error form ("normalized" / "paper"). */
+const char* toString(ErrorForm form);
+/** \brief Parse "normalized" / "paper"; returns false for anything else. */
+bool parseErrorForm(const std::string& text, ErrorForm& form);
+
+/** \brief All parameters of FeatureAwareCoverSimplify, with documented defaults and ranges. */
+struct Parameters
+{
+  /** \brief T_err, the error bound of a ball (paper eq. 15), as a fraction of L.
+   * Range: (0, 1). Default 1e-3: with the normalized form a weighted RMS distance of 0.1% of L
+   * from a representative to the tangent planes it replaces (keeps about 8% of the Bunny). */
+  double error_threshold = 1e-3;
+
+  /** \brief α, the feature factor of eq. 4: a point is a feature point when its measure exceeds
+   * α times the mean measure. Range: > 0 (values below 1 make most points features).
+   * Default 6: on noisy scans of CAD parts α = 3 turns a band several points wide along every
+   * edge into features; 6 keeps the edges themselves (see docs/RESULTS.md). */
+  double feature_factor = 6.0;
+
+  /** \brief K, the size of the one neighbourhood used by eq. 1, 2, 3 and 7-12 (the point itself
+   * excluded). Range: [5, 200]. Default 16. */
+  int k_neighbors = 16;
+
+  /** \brief The error form of E(r). Default Normalized. */
+  ErrorForm error_form = ErrorForm::Normalized;
+
+  /** \brief Step 5: adapt T_err per ball to local curvature and density. Default on. */
+  bool adaptive = true;
+
+  /** \brief Step 5: the factor by which T_err is raised in flat and sparse regions and lowered in
+   * curved and dense ones. Range: [1, 100] (1 is the same as adaptation off). Default 2. */
+  double adaptive_factor = 2.0;
+
+  /** \brief The cap on a ball's radius, in multiples of the mean neighbourhood radius of the
+   * non-feature points (the mean of sqrt(a_i), eq. 1: the RMS distance to the K neighbours; on a
+   * square grid with K = 16 it is 1.73 spacings). Range: (0, 1000]. Default 5 (about 8.7 grid
+   * spacings). Stops one ball from swallowing a whole flat face; raise it for stronger reduction
+   * of flat scans. */
+  double radius_cap_factor = 5.0;
+
+  /** \brief Seed of the order in which ball centres are picked (step 3). Same seed, same input,
+   * same parameters: the same output bit for bit, whatever the thread count. */
+  std::uint64_t seed = 42;
+
+  /** \brief Use the normals carried by the input (normal_x/y/z) instead of estimating them.
+   * Only meaningful for point types with normals; non-finite or zero normals are refused. */
+  bool use_input_normals = false;
+
+  /** \brief Worker threads for the per-point stages; 0 means all hardware threads.
+   * Range: [0, 1024]. The output does not depend on it. */
+  int threads = 0;
+
+  /** \brief If non-zero, search T_err so that the output holds this many points (within 1%, or
+   * the closest size reachable). Overrides error_threshold. */
+  std::size_t target_size = 0;
+};
+
+/** \brief Check every field; returns an empty string when valid, otherwise one sentence naming
+ * the first bad field and its value. */
+std::string validate(const Parameters& params);
+
+/** \brief The thread count actually used for `requested` (0 = all hardware threads). */
+int resolveThreads(int requested);
+
+}  // namespace pcl_ecs

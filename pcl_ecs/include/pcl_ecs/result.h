@@ -1,0 +1,92 @@
+// result.h: what a run of the method reports besides the output cloud.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace pcl_ecs
+{
+
+/** \brief What an output point is. */
+enum class PointLabel : std::uint8_t
+{
+  Feature = 1,        ///< a feature point (eq. 3-4), copied from the input unchanged
+  Representative = 2  ///< the optimised point of one ball (eq. 13-15)
+};
+
+/** \brief One ball of the cover (section 4, steps 3-6). Distances are in the input's units. */
+struct Ball
+{
+  std::int64_t centre_index = -1;  ///< index of the centre c in the input cloud
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();          ///< c
+  Eigen::Vector3d representative = Eigen::Vector3d::Zero();  ///< v (x_min or c)
+  double radius = 0.0;       ///< r (0 when the ball holds its centre alone)
+  double tolerance = 0.0;    ///< T_err used for this ball, after step 5
+  double error = 0.0;        ///< E(r) reached; never above tolerance
+  std::size_t replaced = 0;  ///< input points this ball covered (c included)
+  bool used_centre = false;  ///< true when x_min fell outside the ball and v = c
+  std::size_t output_index = 0;  ///< index of v in the output cloud
+};
+
+/** \brief Wall time of each stage, in seconds. */
+struct StageTimings
+{
+  double preparation = 0;  ///< finite points, local frame
+  double neighbors = 0;    ///< the one K-neighbourhood query
+  double normals = 0;      ///< eq. 2
+  double weights = 0;      ///< eq. 1
+  double features = 0;     ///< eq. 3-4
+  double density = 0;      ///< eq. 5-6
+  double curvature = 0;    ///< eq. 7-12
+  double cover = 0;        ///< steps 2-7 (all T_err tried, in target-size mode)
+  double output = 0;       ///< assembling the output cloud
+  double total = 0;
+};
+
+/** \brief Counts and extremes of one run. */
+struct Summary
+{
+  std::size_t input_points = 0;      ///< points of the input (or of setIndices)
+  std::size_t finite_points = 0;     ///< of those, the finite ones the method used
+  std::size_t feature_points = 0;    ///< m
+  std::size_t balls = 0;             ///< n, the number of representatives
+  std::size_t output_points = 0;     ///< m + n
+  std::size_t centre_fallbacks = 0;  ///< balls whose representative is their centre
+  double feature_threshold = 0;      ///< δ of eq. 4 (input units)
+  double mean_spacing = 0;           ///< mean of eq. 5 (input units)
+  double neighborhood_radius = 0;    ///< mean of sqrt(a_i) (eq. 1): the radius cap's unit
+  double mean_abs_curvature = 0;     ///< mean |H| of eq. 12 (1 / input units)
+  double bbox_diagonal = 0;          ///< L
+  double error_threshold = 0;        ///< T_err used (the one found, in target-size mode)
+  double max_error = 0;              ///< largest E(r) over all balls
+  int target_iterations = 0;         ///< cover runs made by the target-size search
+  StageTimings timings;
+};
+
+/** \brief Everything a user can read after filter(). */
+struct Result
+{
+  /// label of every output point, parallel to the output cloud
+  std::vector<PointLabel> labels;
+  /// for every output point, the input index it was taken from (the point itself for features,
+  /// the point whose attributes a representative carries for balls)
+  std::vector<std::int64_t> source_index;
+  /// for every output point that is a representative, the index into `balls`; -1 for features
+  std::vector<std::int64_t> ball_of_output;
+  /// the balls, in the order they were made
+  std::vector<Ball> balls;
+  /// for every point of the input cloud (input->size()), the output point that stands for it;
+  /// -1 for points that were not used (non-finite, or outside setIndices)
+  std::vector<std::int64_t> input_to_output;
+  Summary summary;
+  /// empty on success; otherwise what went wrong
+  std::string error;
+
+  void clear() { *this = Result{}; }
+};
+
+}  // namespace pcl_ecs

@@ -1,0 +1,48 @@
+// simplify_core.h — the whole method on plain values: local-frame points in, features, balls and
+// timings out. The pcl::Filter (feature_aware_cover_simplify.h) converts to and from point types;
+// the streaming path and the tools reach the method through the filter.
+#pragma once
+
+#include <pcl_ecs/parameters.h>
+#include <pcl_ecs/result.h>
+#include <pcl_ecs/stages/ball_cover.h>
+#include <pcl_ecs/types.h>
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace pcl_ecs
+{
+
+/** \brief Progress callback: a stage name and a fraction in [0, 1]. Shared by every front end. */
+using ProgressCallback = std::function<void(const char* stage, double fraction)>;
+
+/** \brief Everything the method computes, in local-frame units. */
+struct CoreOutput
+{
+  NormalList normals;                   ///< eq. 2 (or the input's, normalised)
+  std::vector<double> weights;          ///< eq. 1
+  std::vector<double> measure;          ///< eq. 3
+  std::vector<std::uint8_t> is_feature; ///< eq. 4
+  std::vector<double> density;          ///< eq. 5
+  std::vector<double> curvature;        ///< eq. 11
+  CoverOutput cover;                    ///< steps 2-7
+  Summary summary;                      ///< counts, δ, means, T_err used, timings
+  std::string error;                    ///< why the run failed (empty on success)
+};
+
+/** \brief Run the method on `cloud` (finite points, local frame).
+ * \param[in] cloud          the points (at least k_neighbors + 1, not all on a line)
+ * \param[in] input_normals  the input's normals when params.use_input_normals, else nullptr
+ * \param[in] params         validated parameters
+ * \param[in] progress       optional progress callback
+ * \param[out] out           what was computed; out.error says why when the status is not Ok */
+Status simplifyLocal(const LocalCloud::ConstPtr& cloud, const NormalList* input_normals,
+                     const Parameters& params, const ProgressCallback& progress, CoreOutput& out);
+
+/** \brief Diagonal of the axis-aligned bounding box of `cloud`. */
+double boundingBoxDiagonal(const LocalCloud& cloud);
+
+}  // namespace pcl_ecs

@@ -1,0 +1,71 @@
+// ball_cover.h — paper section 4, steps 2-7: cover the non-feature points with balls.
+//   2. every non-feature point starts uncovered;
+//   3. pick an uncovered point c (seeded order) and cover it;
+//   4. solve the radius r and the optimised point (eq. 13-15, radius_solver.h);
+//   5. with the tolerance adapted to c's curvature and density (adaptive_tolerance.h);
+//   6. cover the points projected strictly inside the hull of the ball (hull_coverage.h);
+//   7. until no point is uncovered.
+// The representative is x_min when |x_min - c| < r, otherwise c (a sharp region that slipped past
+// the feature test). One radius query per ball (re-issued larger only if the bracket outgrows it)
+// serves every bisection step and the coverage. Sequential by nature; deterministic.
+#pragma once
+
+#include <pcl_ecs/parameters.h>
+#include <pcl_ecs/types.h>
+
+#include <cstdint>
+#include <vector>
+
+#include <pcl/search/search.h>
+
+namespace pcl_ecs
+{
+
+/** \brief What the cover reads; every vector is indexed like `cloud`. */
+struct CoverInput
+{
+  const LocalCloud& cloud;
+  const NormalList& normals;
+  const std::vector<double>& weights;       ///< eq. 1
+  const std::vector<std::uint8_t>& is_feature;
+  const std::vector<double>& curvature;     ///< eq. 11 (H, signed)
+  const std::vector<double>& density;       ///< eq. 5
+  double mean_abs_curvature;                ///< eq. 12 on |H|
+  double mean_density;                      ///< eq. 6
+  /// unit of the radius cap: mean over the non-feature points of sqrt(a_i) (eq. 1), the RMS
+  /// distance to the K neighbours; robust where eq. 5 is not (duplicates, quantised coordinates)
+  double neighborhood_radius;
+  double bbox_diagonal;                     ///< L
+  /// radius search over the non-feature points only (results index `cloud`)
+  const pcl::search::Search<pcl::PointXYZ>& nonfeature_search;
+};
+
+/** \brief One ball, in local-frame coordinates. */
+struct CoverBall
+{
+  int centre = -1;
+  double radius = 0.0;
+  double tolerance = 0.0;
+  double error = 0.0;
+  Eigen::Vector3d representative = Eigen::Vector3d::Zero();
+  bool used_centre = false;
+  int attribute_source = -1;  ///< member nearest to the representative (a real input point)
+  Eigen::Vector3f normal = Eigen::Vector3f::UnitZ();  ///< averaged over the ball, c's sign
+  std::size_t replaced = 0;   ///< points whose owner is this ball
+};
+
+/** \brief The cover. */
+struct CoverOutput
+{
+  std::vector<CoverBall> balls;
+  std::vector<int> owner;  ///< per point: the ball that covered it, -1 for feature points
+  double max_error = 0.0;
+  std::size_t radius_evaluations = 0;
+};
+
+/** \brief Run steps 2-7 with tolerance `error_threshold` and the other settings of `params`
+ * (error_form, adaptive, adaptive_factor, radius_cap_factor, seed). */
+void coverWithBalls(const CoverInput& in, const Parameters& params, double error_threshold,
+                    CoverOutput& out);
+
+}  // namespace pcl_ecs

@@ -1,0 +1,28 @@
+// kernel.h — the weight G_σ of eq. 13. The printed formula is garbled; the C¹ compactly supported
+// kernel it means (SPEC_NOTES) is
+//   G_σ(ρ) = exp(-8 (ρ/σ)²)          for |ρ| <= σ/2
+//          = (16/e²) (1 - |ρ|/σ)⁴     for σ/2 < |ρ| <= σ
+//          = 0                        beyond.
+// Both pieces equal e⁻² at σ/2 with the same slope (-8/(e² σ)). In the method σ = R = 2r.
+#pragma once
+
+#include <cmath>
+
+namespace pcl_ecs
+{
+
+/** \brief G_σ(ρ); σ > 0, ρ a distance (not squared). */
+inline double kernelG(double rho, double sigma)
+{
+  const double t = std::abs(rho) / sigma;
+  if (t <= 0.5)
+    return std::exp(-8.0 * t * t);
+  if (t <= 1.0)
+  {
+    const double s = 1.0 - t;
+    return 16.0 * std::exp(-2.0) * s * s * s * s;
+  }
+  return 0.0;
+}
+
+}  // namespace pcl_ecs

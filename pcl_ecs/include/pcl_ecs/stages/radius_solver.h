@@ -1,0 +1,85 @@
+// radius_solver.h — paper eq. 13-15: the largest radius r of a ball centred at c whose error
+// E(r) stays within the tolerance, and the optimised point x_min(r).
+//
+//   E(r) = sqrt(Q(x_min) / sum_j w_j) / L   (normalized, default: a weighted RMS distance)
+//   E(r) = sqrt(Q(x_min)) / L               (paper, the literal eq. 14)
+// with w_j = a_j G_{2r}(|p_j - c|) over the non-feature p_j within R = 2r.
+//
+// E is not strictly monotone on real data: the solve brackets first (grows r from the floor by
+// ×1.5 until E exceeds the tolerance or r reaches the cap), then bisects, and keeps the largest r
+// found with E(r) <= tolerance. If even the floor fails, the ball holds its centre alone (r = 0,
+// E = 0): the reached error never exceeds the tolerance.
+#pragma once
+
+#include <pcl_ecs/parameters.h>
+#include <pcl_ecs/stages/quadric.h>
+#include <pcl_ecs/types.h>
+
+#include <vector>
+
+namespace pcl_ecs
+{
+
+/** \brief A candidate member of a ball: its distance to the centre (not squared) and index. */
+struct BallCandidate
+{
+  double distance;
+  int index;
+  bool operator<(const BallCandidate& o) const
+  {
+    return distance < o.distance || (distance == o.distance && index < o.index);
+  }
+};
+
+/** \brief What the solver reads: points, unit normals and eq. 1 weights, all indexed alike. */
+struct QuadricSamples
+{
+  const LocalCloud& cloud;
+  const NormalList& normals;
+  const std::vector<double>& weights;
+};
+
+/** \brief E(r) for `form` given the quadric's minimum; L is the bounding-box diagonal. */
+double errorOf(const QuadricMinimum& minimum, double weight_sum, double L, ErrorForm form);
+
+/** \brief E(r) and x_min(r) at one radius, from the candidates sorted by distance. */
+struct RadiusEvaluation
+{
+  double radius = 0.0;
+  double error = 0.0;
+  QuadricMinimum minimum;
+  double weight_sum = 0.0;
+};
+
+/** \brief Evaluate eq. 13-14 at radius r (> 0) over the prefix of `sorted` within 2r. */
+RadiusEvaluation evaluateRadius(const QuadricSamples& samples, const Eigen::Vector3d& centre,
+                                const std::vector<BallCandidate>& sorted, double r, double L,
+                                ErrorForm form);
+
+/** \brief The solve's answer. */
+struct RadiusSolution
+{
+  double radius = 0.0;   ///< r; 0 when the ball holds its centre alone
+  double error = 0.0;    ///< E(r) <= tolerance
+  Eigen::Vector3d x_min = Eigen::Vector3d::Zero();  ///< offset from the centre
+  int evaluations = 0;   ///< how many E(r) were computed
+};
+
+/** \brief Called when the solver needs candidates out to `needed_query_radius`: it must make
+ * `sorted` hold every non-feature point within that distance, sorted (BallCandidate::operator<). */
+struct CandidateSource
+{
+  virtual ~CandidateSource() = default;
+  virtual void ensure(double needed_query_radius, std::vector<BallCandidate>& sorted) = 0;
+};
+
+/** \brief Eq. 15 solved for r in [floor, cap].
+ * \param[in] floor   smallest radius tried (the distance to c's nearest non-feature neighbour)
+ * \param[in] cap     largest radius allowed (> 0)
+ * \param[in] tolerance T_err for this ball (after step 5)
+ * \param[in,out] source supplies candidates as larger radii are tried */
+RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d& centre,
+                           double floor, double cap, double tolerance, double L, ErrorForm form,
+                           CandidateSource& source, std::vector<BallCandidate>& sorted);
+
+}  // namespace pcl_ecs

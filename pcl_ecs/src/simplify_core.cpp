@@ -1,0 +1,259 @@
+#include <pcl_ecs/simplify_core.h>
+
+#include <pcl_ecs/neighborhood.h>
+#include <pcl_ecs/stages/density_weights.h>
+#include <pcl_ecs/stages/feature_measure.h>
+#include <pcl_ecs/stages/local_density.h>
+#include <pcl_ecs/stages/normals.h>
+#include <pcl_ecs/stages/paraboloid_curvature.h>
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include <Eigen/Eigenvalues>
+#include <pcl/search/kdtree.h>
+
+namespace pcl_ecs
+{
+
+namespace
+{
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point t0)
+{
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+/// True when the points lie on one line (or one point): no surface to simplify.
+bool collinear(const LocalCloud& cloud)
+{
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : cloud)
+    mean += p.getVector3fMap().cast<double>();
+  mean /= static_cast<double>(cloud.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : cloud)
+  {
+    const Eigen::Vector3d q = p.getVector3fMap().cast<double>() - mean;
+    cov.noalias() += q * q.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov, Eigen::EigenvaluesOnly);
+  const Eigen::Vector3d ev = es.eigenvalues();
+  return !(ev(1) > 1e-12 * ev(2));
+}
+
+/// The cover at one T_err; the output size is features + balls.
+std::size_t runCover(const CoverInput& in, const Parameters& params, double terr, CoverOutput& out)
+{
+  coverWithBalls(in, params, terr, out);
+  return out.balls.size();
+}
+}  // namespace
+
+double boundingBoxDiagonal(const LocalCloud& cloud)
+{
+  if (cloud.empty())
+    return 0.0;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  for (const auto& p : cloud)
+  {
+    const Eigen::Vector3d q = p.getVector3fMap().cast<double>();
+    lo = lo.cwiseMin(q);
+    hi = hi.cwiseMax(q);
+  }
+  return (hi - lo).norm();
+}
+
+Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* input_normals,
+                     const Parameters& params, const ProgressCallback& progress, CoreOutput& out)
+{
+  out = CoreOutput{};
+  const LocalCloud& cloud = *cloud_ptr;
+  const int threads = resolveThreads(params.threads);
+  const int k = params.k_neighbors;
+  auto report = [&](const char* stage, double f) {
+    if (progress)
+      progress(stage, f);
+  };
+  Summary& s = out.summary;
+  s.finite_points = cloud.size();
+
+  if (cloud.size() <= static_cast<std::size_t>(k))
+  {
+    std::ostringstream os;
+    os << "only " << cloud.size() << " finite points; the neighbourhood size K = " << k
+       << " needs at least " << k + 1;
+    out.error = os.str();
+    return Status::TooFewPoints;
+  }
+  s.bbox_diagonal = boundingBoxDiagonal(cloud);
+  if (!(s.bbox_diagonal > 0.0) || collinear(cloud))
+  {
+    out.error = s.bbox_diagonal > 0.0 ? "all points lie on one line: there is no surface to simplify"
+                                      : "all points are identical: there is no surface to simplify";
+    return Status::Degenerate;
+  }
+  if (input_normals && input_normals->size() != cloud.size())
+  {
+    out.error = "the input normals do not match the points";
+    return Status::InvalidArgument;
+  }
+
+  // The one K-neighbourhood query (eq. 1, 2, 3, 7-12 all read it).
+  auto t = Clock::now();
+  report("neighbours", 0.0);
+  pcl::search::KdTree<pcl::PointXYZ> tree(false);
+  tree.setInputCloud(cloud_ptr);
+  NeighborhoodTable table;
+  computeNeighborhoods(cloud, tree, k, threads, table);
+  s.timings.neighbors = secondsSince(t);
+
+  t = Clock::now();
+  report("normals", 0.0);
+  if (input_normals)
+  {
+    out.normals = *input_normals;
+    std::size_t bad = 0;
+    if (normalizeInputNormals(out.normals, bad) != Status::Ok)
+    {
+      std::ostringstream os;
+      os << "input normal of point " << bad << " is not finite or has zero length";
+      out.error = os.str();
+      return Status::BadNormals;
+    }
+  }
+  else
+  {
+    estimateNormals(cloud, table, threads, out.normals);
+  }
+  s.timings.normals = secondsSince(t);
+
+  t = Clock::now();
+  computeDensityWeights(table, out.weights);
+  s.timings.weights = secondsSince(t);
+
+  t = Clock::now();
+  report("features", 0.0);
+  computeFeatureMeasure(cloud, out.normals, table, threads, out.measure);
+  s.feature_threshold = featureThreshold(out.measure, params.feature_factor);
+  s.feature_points = classifyFeatures(out.measure, s.feature_threshold, out.is_feature);
+  s.timings.features = secondsSince(t);
+
+  if (s.feature_points == cloud.size())
+  {
+    // Every point is a feature point (possible only for α < 1): nothing to cover.
+    s.output_points = s.feature_points;
+    return Status::Ok;
+  }
+
+  t = Clock::now();
+  report("density", 0.0);
+  auto nonfeature_indices = std::make_shared<pcl::Indices>();
+  nonfeature_indices->reserve(cloud.size() - s.feature_points);
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (!out.is_feature[i])
+      nonfeature_indices->push_back(static_cast<int>(i));
+  pcl::search::KdTree<pcl::PointXYZ> nonfeature_tree(false);
+  nonfeature_tree.setInputCloud(cloud_ptr, nonfeature_indices);
+  computeLocalDensity(cloud, table, out.is_feature, nonfeature_tree, threads, out.density);
+  s.mean_spacing = meanOverNonFeatures(out.density, out.is_feature);
+  {
+    std::vector<double> root_weights(out.weights.size());
+    for (std::size_t i = 0; i < root_weights.size(); ++i)
+      root_weights[i] = std::sqrt(out.weights[i]);
+    s.neighborhood_radius = meanOverNonFeatures(root_weights, out.is_feature);
+  }
+  s.timings.density = secondsSince(t);
+
+  t = Clock::now();
+  report("curvature", 0.0);
+  computeMeanCurvature(cloud, out.normals, table, out.is_feature, threads, out.curvature);
+  s.mean_abs_curvature = meanAbsCurvature(out.curvature, out.is_feature);
+  s.timings.curvature = secondsSince(t);
+
+  t = Clock::now();
+  report("cover", 0.0);
+  const CoverInput in{cloud,         out.normals,          out.weights,    out.is_feature,
+                      out.curvature, out.density,          s.mean_abs_curvature,
+                      s.mean_spacing, s.neighborhood_radius, s.bbox_diagonal, nonfeature_tree};
+  if (params.target_size == 0)
+  {
+    s.error_threshold = params.error_threshold;
+    runCover(in, params, s.error_threshold, out.cover);
+    s.target_iterations = 1;
+  }
+  else
+  {
+    // Search T_err (log scale) for |features + balls - target| <= 1% of target, or the closest.
+    const double target = static_cast<double>(params.target_size);
+    const double balls_wanted = target - static_cast<double>(s.feature_points);
+    auto distance = [&](std::size_t balls) {
+      return std::abs(static_cast<double>(s.feature_points + balls) - target);
+    };
+    double best_distance = std::numeric_limits<double>::infinity();
+    CoverOutput trial;
+    auto attempt = [&](double terr) {
+      const std::size_t balls = runCover(in, params, terr, trial);
+      ++s.target_iterations;
+      report("cover", std::min(1.0, s.target_iterations / 40.0));
+      if (distance(balls) < best_distance)
+      {
+        best_distance = distance(balls);
+        s.error_threshold = terr;
+        std::swap(out.cover, trial);
+      }
+      return static_cast<double>(balls);
+    };
+    const double lowest = 1e-12, highest = 0.999;
+    double lo = std::min(std::max(params.error_threshold, lowest), highest);  // T giving too many
+    double hi = lo;                                                           // T giving too few
+    double balls = attempt(lo);
+    const double tol = 0.01 * target;
+    if (std::abs(balls - balls_wanted) > tol)
+    {
+      if (balls > balls_wanted)
+      {
+        // Raise T until too few points.
+        while (balls > balls_wanted && hi < highest && best_distance > tol)
+        {
+          lo = hi;
+          hi = std::min(hi * 4.0, highest);
+          balls = attempt(hi);
+        }
+      }
+      else
+      {
+        while (balls < balls_wanted && lo > lowest && best_distance > tol)
+        {
+          hi = lo;
+          lo = std::max(lo / 4.0, lowest);
+          balls = attempt(lo);
+        }
+      }
+      for (int it = 0; it < 40 && best_distance > tol && hi / lo > 1.0 + 1e-9; ++it)
+      {
+        const double mid = std::sqrt(lo * hi);
+        const double b = attempt(mid);
+        if (b > balls_wanted)
+          lo = mid;
+        else
+          hi = mid;
+      }
+    }
+  }
+  s.timings.cover = secondsSince(t);
+  report("cover", 1.0);
+
+  s.balls = out.cover.balls.size();
+  s.output_points = s.feature_points + s.balls;
+  s.max_error = out.cover.max_error;
+  for (const auto& b : out.cover.balls)
+    s.centre_fallbacks += b.used_centre ? 1 : 0;
+  return Status::Ok;
+}
+
+}  // namespace pcl_ecs

@@ -1,0 +1,66 @@
+#include <pcl_ecs/stages/local_density.h>
+
+#include <cmath>
+#include <cstddef>
+
+namespace pcl_ecs
+{
+
+void computeLocalDensity(const LocalCloud& cloud, const NeighborhoodTable& table,
+                         const std::vector<std::uint8_t>& is_feature,
+                         const pcl::search::Search<pcl::PointXYZ>& nonfeature_search,
+                         int threads, std::vector<double>& dens)
+{
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(table.size());
+  dens.assign(static_cast<std::size_t>(n), 0.0);
+#pragma omp parallel num_threads(threads)
+  {
+    pcl::Indices found;
+    std::vector<float> d2;
+#pragma omp for schedule(dynamic, 4096)
+    for (std::ptrdiff_t i = 0; i < n; ++i)
+    {
+      if (is_feature[static_cast<std::size_t>(i)])
+        continue;
+      const int* nb = table.neighbors(static_cast<std::size_t>(i));
+      const float* nd = table.sqrDistances(static_cast<std::size_t>(i));
+      double best = -1.0;
+      for (int j = 0; j < table.k; ++j)
+        if (!is_feature[static_cast<std::size_t>(nb[j])])
+        {
+          best = nd[j];  // sorted: the first non-feature neighbour is the nearest
+          break;
+        }
+      if (best < 0.0)
+      {
+        // Every K-neighbour is a feature point: ask the non-feature search (self + one other).
+        nonfeature_search.nearestKSearch(cloud[i], 2, found, d2);
+        for (std::size_t j = 0; j < found.size(); ++j)
+          if (found[j] != i)
+          {
+            best = d2[j];
+            break;
+          }
+        if (best < 0.0)
+          best = 0.0;  // the only non-feature point: no spacing to speak of
+      }
+      dens[static_cast<std::size_t>(i)] = std::sqrt(best);
+    }
+  }
+}
+
+double meanOverNonFeatures(const std::vector<double>& values,
+                           const std::vector<std::uint8_t>& is_feature)
+{
+  double sum = 0.0;
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < values.size(); ++i)
+    if (!is_feature[i])
+    {
+      sum += values[i];
+      ++count;
+    }
+  return count ? sum / static_cast<double>(count) : 0.0;
+}
+
+}  // namespace pcl_ecs

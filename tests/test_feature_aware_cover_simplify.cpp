@@ -1,0 +1,408 @@
+// The filter as a user sees it: analytic shapes with exact expectations, the shared scans, and
+// the pcl::Filter contract.
+#include <pcl_ecs/feature_aware_cover_simplify.h>
+
+#include "synthetic_shapes.h"
+
+#include <cmath>
+#include <limits>
+#include <set>
+
+#include <gtest/gtest.h>
+#include <pcl/common/common.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/search/kdtree.h>
+
+using namespace pcl_ecs_test;
+using Filter = pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ>;
+
+namespace
+{
+Cloud::Ptr loadShared(const std::string& name)
+{
+  auto c = std::make_shared<Cloud>();
+  if (pcl::io::loadPCDFile(sharedData(name), *c) < 0)
+    ADD_FAILURE() << "cannot read " << sharedData(name);
+  return c;
+}
+
+Cloud run(const Cloud::Ptr& in, Filter& f)
+{
+  Cloud out;
+  f.setInputCloud(in);
+  f.filter(out);
+  return out;
+}
+}  // namespace
+
+TEST(Filter, PlaneHasNoFeaturesAndRepresentativesOnThePlane)
+{
+  auto cloud = randomPlane(10000, 2.0, 1);
+  Filter f;
+  const Cloud out = run(cloud, f);
+  const auto& r = f.getResult();
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  EXPECT_EQ(r.summary.feature_points, 0u);
+  EXPECT_LT(r.summary.mean_abs_curvature, 1e-6);
+  const double L = r.summary.bbox_diagonal;
+  ASSERT_GT(out.size(), 0u);
+  for (const auto& p : out)
+    EXPECT_LE(std::abs(p.z), 1e-6 * L);
+  EXPECT_LT(out.size(), cloud->size() / 5);
+}
+
+TEST(Filter, SphereCurvatureAndRepresentatives)
+{
+  const double rho = 1.5;
+  auto cloud = fibonacciSphere(30000, rho, 0.0, 1, Eigen::Vector3d(10, -4, 2));
+  Filter f;
+  f.setErrorThreshold(5e-4);
+  const Cloud out = run(cloud, f);
+  const auto& r = f.getResult();
+  ASSERT_TRUE(r.error.empty());
+  EXPECT_NEAR(r.summary.mean_abs_curvature, 1.0 / rho, 0.03 / rho);
+  EXPECT_EQ(r.summary.feature_points, 0u);  // a sphere has no sharp feature
+  const double L = r.summary.bbox_diagonal;
+  for (const auto& b : r.balls)
+  {
+    // E is a weighted RMS distance to the tangent planes; the representative is within a few
+    // T_err·L of the sphere (the worst representatives sit at about 1.1 T_err·L).
+    const double dist = std::abs((b.representative - Eigen::Vector3d(10, -4, 2)).norm() - rho);
+    EXPECT_LT(dist, 2.0 * b.tolerance * L);
+  }
+}
+
+// Cube of side 2 with 61 samples per edge (spacing h = 1/30) and noise of 2% of h along the
+// normals: at the default α, ≥ 90% of the samples within one spacing of an edge are features and
+// ≤ 5% of the samples farther than 3 spacings are.
+TEST(Filter, CubeEdgesAreFeatures)
+{
+  const double a = 2.0;
+  const int m = 151;
+  const double h = a / (m - 1);
+  auto cloud = cubeSurface(m, a, 0.02 * h, 3);
+  Filter f;
+  const Cloud out = run(cloud, f);
+  const auto& r = f.getResult();
+  ASSERT_TRUE(r.error.empty());
+  std::vector<std::uint8_t> is_feature(cloud->size(), 0);
+  for (std::size_t o = 0; o < out.size(); ++o)
+    if (r.labels[o] == pcl_ecs::PointLabel::Feature)
+      is_feature[static_cast<std::size_t>(r.source_index[o])] = 1;
+  std::size_t near = 0, near_f = 0, far = 0, far_f = 0;
+  for (std::size_t i = 0; i < cloud->size(); ++i)
+  {
+    const double d = distanceToCubeEdge((*cloud)[i].getVector3fMap().cast<double>(), a);
+    if (d <= 1.01 * h)
+    {
+      ++near;
+      near_f += is_feature[i];
+    }
+    else if (d > 3.0 * h)
+    {
+      ++far;
+      far_f += is_feature[i];
+    }
+  }
+  EXPECT_GE(near_f, 0.9 * near) << near_f << " of " << near;
+  EXPECT_LE(far_f, 0.05 * far) << far_f << " of " << far;
+}
+
+// Scaling by a power of two is exact in floating point, so the normalized error must give the
+// very same decisions: same size, same representatives scaled, bit for bit.
+TEST(Filter, NormalizedErrorIsScaleFreeExactly)
+{
+  auto cloud = loadShared("bunny.pcd");
+  auto scaled = std::make_shared<Cloud>(*cloud);
+  for (auto& p : *scaled)
+    p.getVector3fMap() *= 1024.0f;
+  Filter a, b;
+  const Cloud oa = run(cloud, a), ob = run(scaled, b);
+  ASSERT_GT(oa.size(), 100u);
+  ASSERT_EQ(oa.size(), ob.size());
+  EXPECT_EQ(a.getResult().summary.feature_points, b.getResult().summary.feature_points);
+  for (std::size_t i = 0; i < oa.size(); ++i)
+    ASSERT_EQ(oa[i].getVector3fMap() * 1024.0f, ob[i].getVector3fMap()) << i;
+}
+
+// Scaling by 1000 rounds every coordinate; decisions near a threshold may flip, nothing more:
+// sizes within 0.5% and 98% of the representatives matched by a scaled one within 1e-4·L.
+TEST(Filter, NormalizedErrorIsScaleFreeBy1000)
+{
+  auto cloud = loadShared("bunny.pcd");
+  auto scaled = std::make_shared<Cloud>(*cloud);
+  for (auto& p : *scaled)
+    p.getVector3fMap() *= 1000.0f;
+  Filter a, b;
+  const Cloud oa = run(cloud, a), ob = run(scaled, b);
+  ASSERT_GT(oa.size(), 100u);
+  EXPECT_NEAR(static_cast<double>(ob.size()), static_cast<double>(oa.size()), 0.005 * oa.size());
+  auto ob_down = std::make_shared<Cloud>(ob);
+  for (auto& p : *ob_down)
+    p.getVector3fMap() /= 1000.0f;
+  pcl::search::KdTree<pcl::PointXYZ> tree;
+  tree.setInputCloud(ob_down);
+  const double L = a.getResult().summary.bbox_diagonal;
+  std::size_t matched = 0;
+  pcl::Indices idx(1);
+  std::vector<float> d2(1);
+  for (const auto& p : oa)
+    if (tree.nearestKSearch(p, 1, idx, d2) == 1 && std::sqrt(d2[0]) < 1e-4 * L)
+      ++matched;
+  EXPECT_GE(matched, oa.size() * 98 / 100);
+}
+
+TEST(Filter, LargerTerrFewerPointsLargerAlphaFewerFeatures)
+{
+  for (const char* name : {"bunny.pcd", "fandisk_scan.pcd", "bun000_rangescan.pcd"})
+  {
+    auto cloud = loadShared(name);
+    std::size_t prev_size = std::numeric_limits<std::size_t>::max();
+    for (double t : {2e-4, 1e-3, 5e-3})
+    {
+      Filter f;
+      f.setErrorThreshold(t);
+      f.setRadiusCapFactor(50.0);  // let T_err, not the cap, decide
+      const std::size_t size = run(cloud, f).size();
+      EXPECT_LT(size, prev_size) << name << " T_err " << t;
+      prev_size = size;
+    }
+    std::size_t prev_features = std::numeric_limits<std::size_t>::max();
+    for (double alpha : {2.5, 3.5, 4.5, 6.0})
+    {
+      Filter f;
+      f.setFeatureFactor(alpha);
+      run(cloud, f);
+      const std::size_t features = f.getResult().summary.feature_points;
+      EXPECT_LT(features, prev_features) << name << " alpha " << alpha;
+      prev_features = features;
+    }
+  }
+}
+
+TEST(Filter, MappingIsTotalAndErrorsWithinTolerance)
+{
+  auto cloud = loadShared("bunny.pcd");
+  Filter f;
+  const Cloud out = run(cloud, f);
+  const auto& r = f.getResult();
+  ASSERT_EQ(r.input_to_output.size(), cloud->size());
+  std::vector<std::size_t> replaced(out.size(), 0);
+  for (std::size_t i = 0; i < cloud->size(); ++i)
+  {
+    ASSERT_GE(r.input_to_output[i], 0);
+    ASSERT_LT(r.input_to_output[i], static_cast<std::int64_t>(out.size()));
+    ++replaced[static_cast<std::size_t>(r.input_to_output[i])];
+  }
+  ASSERT_EQ(r.labels.size(), out.size());
+  for (std::size_t o = 0; o < out.size(); ++o)
+  {
+    if (r.labels[o] == pcl_ecs::PointLabel::Feature)
+    {
+      EXPECT_EQ(replaced[o], 1u);
+      EXPECT_EQ(r.input_to_output[static_cast<std::size_t>(r.source_index[o])], static_cast<std::int64_t>(o));
+    }
+    else
+    {
+      const auto& b = r.balls[static_cast<std::size_t>(r.ball_of_output[o])];
+      EXPECT_EQ(b.output_index, o);
+      EXPECT_EQ(replaced[o], b.replaced);
+      EXPECT_LE(b.error, b.tolerance);
+    }
+  }
+  EXPECT_EQ(r.summary.output_points, out.size());
+  EXPECT_LE(r.summary.max_error, 2.0 * f.getErrorThreshold());  // adaptive factor 2
+  EXPECT_GT(r.summary.timings.total, 0.0);
+}
+
+TEST(Filter, NonFinitePointsAreDroppedAndOrganisedBecomesUnorganised)
+{
+  auto plane = gridPlane(60, 0.01);
+  auto cloud = std::make_shared<Cloud>(*plane);
+  cloud->width = 60;
+  cloud->height = 60;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (std::size_t i = 0; i < cloud->size(); i += 7)
+    (*cloud)[i].x = nan;
+  (*cloud)[3].z = std::numeric_limits<float>::infinity();
+  cloud->is_dense = false;
+  Filter f;
+  const Cloud out = run(cloud, f);
+  ASSERT_GT(out.size(), 0u);
+  EXPECT_EQ(out.height, 1u);
+  EXPECT_EQ(out.width, out.size());
+  EXPECT_TRUE(out.is_dense);
+  for (const auto& p : out)
+    EXPECT_TRUE(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z));
+  const auto& r = f.getResult();
+  EXPECT_EQ(r.input_to_output[0], -1);
+  EXPECT_EQ(r.input_to_output[3], -1);
+  EXPECT_GE(r.input_to_output[1], 0);
+  EXPECT_EQ(r.summary.finite_points, 3600u - 515u - 1u);
+}
+
+TEST(Filter, EmptyAndTooSmallInputsGiveEmptyOutputAndAnError)
+{
+  Filter f;
+  Cloud out;
+  out.push_back(pcl::PointXYZ(1, 2, 3));  // stale output must be cleared
+  f.setInputCloud(std::make_shared<Cloud>());
+  f.filter(out);
+  EXPECT_TRUE(out.empty());
+  EXPECT_FALSE(f.getResult().error.empty());
+
+  auto small = gridPlane(4, 1.0);  // 16 points, K = 16 needs 17
+  out.push_back(pcl::PointXYZ(1, 2, 3));
+  f.setInputCloud(small);
+  f.filter(out);
+  EXPECT_TRUE(out.empty());
+  EXPECT_NE(f.getResult().error.find("K = 16"), std::string::npos) << f.getResult().error;
+
+  auto nans = std::make_shared<Cloud>(*gridPlane(10, 1.0));
+  for (auto& p : *nans)
+    p.y = std::numeric_limits<float>::quiet_NaN();
+  nans->is_dense = false;
+  f.setInputCloud(nans);
+  f.filter(out);
+  EXPECT_TRUE(out.empty());
+  EXPECT_NE(f.getResult().error.find("no finite points"), std::string::npos);
+}
+
+TEST(Filter, DegenerateCloudsAreRefusedCleanly)
+{
+  Filter f;
+  Cloud out;
+  auto same = std::make_shared<Cloud>();
+  for (int i = 0; i < 50; ++i)
+    same->push_back(pcl::PointXYZ(1, 1, 1));
+  f.setInputCloud(same);
+  f.filter(out);
+  EXPECT_TRUE(out.empty());
+  EXPECT_NE(f.getResult().error.find("identical"), std::string::npos);
+
+  auto line = std::make_shared<Cloud>();
+  for (int i = 0; i < 50; ++i)
+    line->push_back(pcl::PointXYZ(i * 0.1f, i * 0.2f, 3.0f));
+  f.setInputCloud(line);
+  f.filter(out);
+  EXPECT_TRUE(out.empty());
+  EXPECT_NE(f.getResult().error.find("line"), std::string::npos);
+}
+
+TEST(Filter, BadParameterGivesEmptyOutput)
+{
+  auto cloud = fibonacciSphere(2000, 1.0);
+  for (int which = 0; which < 4; ++which)
+  {
+    Filter f;
+    if (which == 0) f.setErrorThreshold(-1.0);
+    if (which == 1) f.setFeatureFactor(std::numeric_limits<double>::quiet_NaN());
+    if (which == 2) f.setNeighborhoodSize(0);
+    if (which == 3) f.setUseInputNormals(true);  // PointXYZ carries no normals
+    Cloud out;
+    out.push_back(pcl::PointXYZ(0, 0, 0));
+    f.setInputCloud(cloud);
+    f.filter(out);
+    EXPECT_TRUE(out.empty()) << which;
+    EXPECT_FALSE(f.getResult().error.empty()) << which;
+  }
+}
+
+TEST(Filter, HonoursIndicesKeepsHeaderAndWorksInPlace)
+{
+  auto cloud = fibonacciSphere(6000, 1.0);
+  cloud->header.frame_id = "scanner";
+  cloud->header.stamp = 12345;
+  auto indices = std::make_shared<pcl::Indices>();
+  for (int i = 0; i < 6000; ++i)
+    if ((*cloud)[static_cast<std::size_t>(i)].z > 0.0f)
+      indices->push_back(i);
+  Filter f;
+  f.setInputCloud(cloud);
+  f.setIndices(indices);
+  Cloud out;
+  f.filter(out);
+  ASSERT_GT(out.size(), 0u);
+  EXPECT_EQ(out.header.frame_id, "scanner");
+  EXPECT_EQ(out.header.stamp, 12345u);
+  for (const auto& p : out)
+    EXPECT_GT(p.z, -0.05f);  // only the upper half was used
+  EXPECT_EQ(f.getResult().input_to_output[static_cast<std::size_t>(3000 + 100)] , f.getResult().input_to_output[static_cast<std::size_t>(3000 + 100)]);
+  for (int i = 0; i < 6000; ++i)
+    if ((*cloud)[static_cast<std::size_t>(i)].z <= 0.0f)
+      EXPECT_EQ(f.getResult().input_to_output[static_cast<std::size_t>(i)], -1);
+
+  // In place: filter(*input) gives the same points as into another cloud.
+  Filter g;
+  auto copy = std::make_shared<Cloud>(*cloud);
+  g.setInputCloud(copy);
+  g.setIndices(indices);
+  g.filter(*copy);
+  ASSERT_EQ(copy->size(), out.size());
+  for (std::size_t i = 0; i < out.size(); ++i)
+    EXPECT_EQ((*copy)[i].getVector3fMap(), out[i].getVector3fMap());
+  EXPECT_EQ(copy->header.frame_id, "scanner");
+}
+
+TEST(Filter, SameSeedSameOutputWhateverTheThreadCount)
+{
+  auto cloud = loadShared("fandisk_scan.pcd");
+  Filter one, all, again;
+  one.setNumberOfThreads(1);
+  all.setNumberOfThreads(0);
+  again.setNumberOfThreads(2);
+  const Cloud a = run(cloud, one), b = run(cloud, all), c = run(cloud, again);
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_EQ(a.size(), c.size());
+  for (std::size_t i = 0; i < a.size(); ++i)
+  {
+    // Bit for bit.
+    ASSERT_EQ(std::memcmp(&a[i], &b[i], sizeof(pcl::PointXYZ)), 0) << i;
+    ASSERT_EQ(std::memcmp(&a[i], &c[i], sizeof(pcl::PointXYZ)), 0) << i;
+  }
+  Filter other;
+  other.setSeed(1234);
+  const Cloud d = run(cloud, other);
+  bool differs = d.size() != a.size();
+  for (std::size_t i = 0; !differs && i < a.size(); ++i)
+    differs = a[i].getVector3fMap() != d[i].getVector3fMap();
+  EXPECT_TRUE(differs);
+}
+
+TEST(Filter, TargetSizeWithinOnePercent)
+{
+  auto cloud = loadShared("bunny.pcd");
+  for (std::size_t target : {3600u, 1100u})
+  {
+    Filter f;
+    f.setTargetSize(target);
+    const Cloud out = run(cloud, f);
+    EXPECT_NEAR(static_cast<double>(out.size()), static_cast<double>(target), 0.01 * target);
+    EXPECT_GT(f.getResult().summary.target_iterations, 1);
+  }
+}
+
+TEST(Filter, FeatureRepresentativeLabelsAndUtmCoordinates)
+{
+  auto cloud = loadShared("terrain_csite1_utm.pcd");
+  ASSERT_GT(cloud->size(), 500000u);
+  Filter f;
+  const Cloud out = run(cloud, f);
+  const auto& r = f.getResult();
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_GT(out.size(), 0u);
+  EXPECT_LT(out.size(), cloud->size() / 4);
+  // Representatives stay within the input's bounding box grown by a ball radius: in the millions,
+  // float rounding of a naive implementation moves points by metres.
+  Eigen::Vector4f lo, hi;
+  pcl::getMinMax3D(*cloud, lo, hi);
+  for (const auto& b : r.balls)
+  {
+    EXPECT_LE((b.representative - b.centre).norm(), b.radius + 1e-3);
+  }
+  for (const auto& p : out)
+  {
+    EXPECT_GE(p.x, lo.x() - 50.0f);
+    EXPECT_LE(p.x, hi.x() + 50.0f);
+  }
+}

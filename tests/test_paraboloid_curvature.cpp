@@ -1,0 +1,74 @@
+#include <pcl_ecs/stages/paraboloid_curvature.h>
+
+#include "synthetic_shapes.h"
+#include "test_support.h"
+
+#include <gtest/gtest.h>
+
+using namespace pcl_ecs_test;
+
+// Points exactly on z = a x² + b xy + c y² in a tilted frame: the fit recovers H = a + c.
+TEST(ParaboloidCurvature, ExactOnAParaboloid)
+{
+  const double a = 0.7, b = -0.3, c = 1.9;
+  const Eigen::Vector3d normal = Eigen::Vector3d(1, 2, 3).normalized();
+  const Eigen::Vector3d centre(5, -2, 1);
+  Eigen::Vector3d u = normal.cross(Eigen::Vector3d::UnitX()).normalized();
+  Eigen::Vector3d v = normal.cross(u);
+  std::vector<Eigen::Vector3d> pts;
+  Rng rng(11);
+  for (int i = 0; i < 20; ++i)
+  {
+    const double x = rng.uniform(-0.1, 0.1), y = rng.uniform(-0.1, 0.1);
+    pts.push_back(centre + x * u + y * v + (a * x * x + b * x * y + c * y * y) * normal);
+  }
+  EXPECT_NEAR(pcl_ecs::paraboloidMeanCurvature(centre, normal, pts), a + c, 1e-9);
+  EXPECT_NEAR(pcl_ecs::paraboloidMeanCurvature(centre, normal, pts, pcl_ecs::ParaboloidFit::Literal),
+              a + c, 1e-9);
+  // The fit is in the frame of the normal, whatever its in-plane axes: flipping n flips H.
+  EXPECT_NEAR(pcl_ecs::paraboloidMeanCurvature(centre, -normal, pts), -(a + c), 1e-9);
+}
+
+TEST(ParaboloidCurvature, UnderdeterminedFitGivesZero)
+{
+  const std::vector<Eigen::Vector3d> pts = {{0, 0, 0}, {1, 0, 0.1}};
+  EXPECT_EQ(pcl_ecs::paraboloidMeanCurvature({0, 0, 0}, {0, 0, 1}, pts), 0.0);
+}
+
+TEST(ParaboloidCurvature, ZeroOnAPlane)
+{
+  auto cloud = randomPlane(2000, 1.0, 3);
+  const auto table = makeTable(cloud, 16);
+  const std::vector<std::uint8_t> none(cloud->size(), 0);
+  std::vector<double> H;
+  pcl_ecs::computeMeanCurvature(*cloud, makeNormals(cloud, table), table, none, 2, H);
+  for (double h : H)
+    EXPECT_LT(std::abs(h), 1e-6);
+  EXPECT_LT(pcl_ecs::meanAbsCurvature(H, none), 1e-6);
+}
+
+// Sphere of radius ρ = 2 sampled densely: |H| within 3% of 1/ρ at every point.
+TEST(ParaboloidCurvature, SphereOfKnownRadius)
+{
+  const double rho = 2.0;
+  auto cloud = fibonacciSphere(40000, rho);
+  const auto table = makeTable(cloud, 16);
+  const std::vector<std::uint8_t> none(cloud->size(), 0);
+  std::vector<double> H;
+  pcl_ecs::computeMeanCurvature(*cloud, makeNormals(cloud, table), table, none, 2, H);
+  for (double h : H)
+    EXPECT_NEAR(std::abs(h), 1.0 / rho, 0.03 / rho);
+  EXPECT_NEAR(pcl_ecs::meanAbsCurvature(H, none), 1.0 / rho, 0.01 / rho);
+}
+
+TEST(ParaboloidCurvature, FeaturePointsAreSkipped)
+{
+  auto cloud = fibonacciSphere(2000, 1.0);
+  const auto table = makeTable(cloud, 16);
+  std::vector<std::uint8_t> feature(cloud->size(), 0);
+  feature[7] = 1;
+  std::vector<double> H;
+  pcl_ecs::computeMeanCurvature(*cloud, makeNormals(cloud, table), table, feature, 1, H);
+  EXPECT_EQ(H[7], 0.0);
+  EXPECT_GT(std::abs(H[8]), 0.9);
+}

@@ -1,0 +1,121 @@
+#include <pcl_ecs/stages/radius_solver.h>
+
+#include <pcl_ecs/stages/density_weights.h>
+
+#include "synthetic_shapes.h"
+#include "test_support.h"
+
+#include <algorithm>
+
+#include <gtest/gtest.h>
+
+using namespace pcl_ecs_test;
+
+namespace
+{
+/// Brute force: every point, sorted by distance to the centre (the oracle for the kd-tree source).
+struct AllPoints : pcl_ecs::CandidateSource
+{
+  AllPoints(const Cloud& cloud, const Eigen::Vector3d& c)
+  {
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+      all.push_back({(cloud[i].getVector3fMap().cast<double>() - c).norm(), static_cast<int>(i)});
+    std::sort(all.begin(), all.end());
+  }
+  void ensure(double, std::vector<pcl_ecs::BallCandidate>& sorted) override { sorted = all; }
+  std::vector<pcl_ecs::BallCandidate> all;
+};
+
+struct Fixture
+{
+  explicit Fixture(Cloud::Ptr c) : cloud(std::move(c))
+  {
+    const auto table = makeTable(cloud, 16);
+    normals = makeNormals(cloud, table);
+    pcl_ecs::computeDensityWeights(table, weights);
+  }
+  pcl_ecs::QuadricSamples samples() const { return {*cloud, normals, weights}; }
+  Cloud::Ptr cloud;
+  pcl_ecs::NormalList normals;
+  std::vector<double> weights;
+};
+}  // namespace
+
+TEST(RadiusSolver, PlaneReachesTheCapWithZeroError)
+{
+  Fixture f(gridPlane(41, 0.05));
+  const std::size_t c = 20 * 41 + 20;
+  const Eigen::Vector3d centre = (*f.cloud)[c].getVector3fMap().cast<double>();
+  AllPoints src(*f.cloud, centre);
+  std::vector<pcl_ecs::BallCandidate> sorted;
+  const auto sol = pcl_ecs::solveRadius(f.samples(), centre, 0.05, 0.4, 1e-6, 2.0,
+                                        pcl_ecs::ErrorForm::Normalized, src, sorted);
+  EXPECT_DOUBLE_EQ(sol.radius, 0.4);
+  EXPECT_LT(sol.error, 1e-9);
+  EXPECT_LT(sol.x_min.norm(), 1e-9);
+}
+
+TEST(RadiusSolver, SphereErrorGrowsWithTheRadiusAndTheSolveIsTight)
+{
+  Fixture f(fibonacciSphere(20000, 1.0));
+  const Eigen::Vector3d centre = (*f.cloud)[1234].getVector3fMap().cast<double>();
+  AllPoints src(*f.cloud, centre);
+  const double L = 2.0 * std::sqrt(3.0);
+  double prev = -1.0;
+  for (double r : {0.02, 0.04, 0.08, 0.16, 0.32})
+  {
+    const auto ev = pcl_ecs::evaluateRadius(f.samples(), centre, src.all, r, L, pcl_ecs::ErrorForm::Normalized);
+    EXPECT_GT(ev.error, prev);
+    prev = ev.error;
+  }
+  const double T = 1e-3;
+  std::vector<pcl_ecs::BallCandidate> sorted;
+  const auto sol = pcl_ecs::solveRadius(f.samples(), centre, 0.01, 1.0, T, L,
+                                        pcl_ecs::ErrorForm::Normalized, src, sorted);
+  ASSERT_GT(sol.radius, 0.01);
+  EXPECT_LE(sol.error, T);
+  // Tight: a radius 2% larger already exceeds the tolerance (the bisection stops at 0.1%).
+  const auto above = pcl_ecs::evaluateRadius(f.samples(), centre, src.all, sol.radius * 1.02, L,
+                                             pcl_ecs::ErrorForm::Normalized);
+  EXPECT_GT(above.error, T);
+  // The representative of a sphere cap sits within the error of the sphere (relative to L).
+  EXPECT_LT(std::abs((centre + sol.x_min).norm() - 1.0), 2.0 * T * L);
+}
+
+TEST(RadiusSolver, WhenTheFloorFailsTheBallHoldsItsCentreAlone)
+{
+  Fixture f(fibonacciSphere(2000, 1.0));
+  const Eigen::Vector3d centre = (*f.cloud)[10].getVector3fMap().cast<double>();
+  AllPoints src(*f.cloud, centre);
+  std::vector<pcl_ecs::BallCandidate> sorted;
+  const auto sol = pcl_ecs::solveRadius(f.samples(), centre, 0.05, 1.0, 1e-12, 3.4,
+                                        pcl_ecs::ErrorForm::Normalized, src, sorted);
+  EXPECT_EQ(sol.radius, 0.0);
+  EXPECT_EQ(sol.error, 0.0);
+  EXPECT_EQ(sol.evaluations, 1);
+}
+
+// The two error forms differ by exactly sqrt(sum of weights).
+TEST(RadiusSolver, PaperFormIsNormalizedTimesRootWeightSum)
+{
+  Fixture f(fibonacciSphere(5000, 1.0));
+  const Eigen::Vector3d centre = (*f.cloud)[99].getVector3fMap().cast<double>();
+  AllPoints src(*f.cloud, centre);
+  const auto n = pcl_ecs::evaluateRadius(f.samples(), centre, src.all, 0.1, 3.0, pcl_ecs::ErrorForm::Normalized);
+  const auto p = pcl_ecs::evaluateRadius(f.samples(), centre, src.all, 0.1, 3.0, pcl_ecs::ErrorForm::Paper);
+  ASSERT_GT(n.weight_sum, 0.0);
+  EXPECT_NEAR(p.error, n.error * std::sqrt(n.weight_sum), 1e-12 + 1e-9 * p.error);
+}
+
+// The normalized error is scale-free: scaling the cloud scales r and keeps E.
+TEST(RadiusSolver, NormalizedErrorIsScaleFree)
+{
+  const double s = 1000.0;
+  Fixture a(fibonacciSphere(5000, 1.0)), b(fibonacciSphere(5000, s));
+  const Eigen::Vector3d ca = (*a.cloud)[99].getVector3fMap().cast<double>();
+  const Eigen::Vector3d cb = (*b.cloud)[99].getVector3fMap().cast<double>();
+  AllPoints sa(*a.cloud, ca), sb(*b.cloud, cb);
+  const auto ea = pcl_ecs::evaluateRadius(a.samples(), ca, sa.all, 0.1, 3.0, pcl_ecs::ErrorForm::Normalized);
+  const auto eb = pcl_ecs::evaluateRadius(b.samples(), cb, sb.all, 0.1 * s, 3.0 * s, pcl_ecs::ErrorForm::Normalized);
+  EXPECT_NEAR(eb.error, ea.error, 1e-4 * ea.error);
+}
