@@ -1,0 +1,105 @@
+// cloud_io.h — reading and writing point clouds for the tools: PCD (ascii, binary,
+// binary_compressed; organised or not), PLY (ascii, binary little/big endian) and plain-text XYZ.
+// The parsers are our own so that every malformed input gets a precise message instead of a crash
+// or a silent half-read (they are fuzzed: tests/fuzz). They produce a pcl::PCLPointCloud2 whose
+// fields keep PCL's names (x y z, normal_x.., rgb/rgba, intensity, label, curvature), so
+// pcl::fromPCLPointCloud2 turns it into any PCL point type.
+#pragma once
+
+#include <ostream>
+#include <stdexcept>
+#include <string>
+
+#include <pcl/PCLPointCloud2.h>
+
+namespace pcl_ecs
+{
+namespace io
+{
+
+/** \brief Thrown for content that is not a valid cloud; what() says what is wrong and where. */
+class FormatError : public std::runtime_error
+{
+public:
+  using std::runtime_error::runtime_error;
+};
+
+/** \brief Thrown for a file that cannot be read or written; what() starts with the path. */
+class FileError : public std::runtime_error
+{
+public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class Format
+{
+  Pcd,
+  Ply,
+  Xyz,
+  Unknown
+};
+
+/** \brief The format for a path, by extension (case-insensitive): .pcd, .ply, .xyz / .txt / .pts. */
+Format formatFromPath(const std::string& path);
+/** \brief "PCD", "PLY", "XYZ" or "unknown". */
+const char* formatName(Format format);
+
+/** \brief Encoding of a written PCD / PLY. */
+enum class Encoding
+{
+  Binary,            ///< PCD binary, PLY binary_little_endian (default)
+  Ascii,             ///< PCD ascii, PLY ascii
+  BinaryCompressed   ///< PCD binary_compressed (PLY: written as binary)
+};
+
+/** \brief Parse a PCD file held in `bytes`. Throws FormatError. */
+void parsePcd(const std::string& bytes, pcl::PCLPointCloud2& cloud);
+/** \brief Parse a PLY file held in `bytes` (its vertex element). Throws FormatError. */
+void parsePly(const std::string& bytes, pcl::PCLPointCloud2& cloud);
+/** \brief Parse whitespace-separated columns, one point per line, '#' comments. By column count:
+ * 3: x y z; 4: x y z intensity; 6: x y z nx ny nz, or x y z r g b when the last three are all
+ * integers in [0, 255] and one exceeds 1; 7: x y z r g b a (integers in [0, 255]);
+ * 9: x y z nx ny nz r g b. Other counts, or lines of different counts, are refused.
+ * Throws FormatError naming the line. */
+void parseXyz(const std::string& bytes, pcl::PCLPointCloud2& cloud);
+
+/** \brief Read `path`, by its extension, checking that the content matches it. Throws FileError
+ * (missing, unreadable, a directory, empty) or FormatError (prefixed with the path). */
+void readCloud(const std::string& path, pcl::PCLPointCloud2& cloud);
+
+/** \brief Write `cloud` to `path` as `format` (Pcd or Ply). Writes the path given directly; use
+ * AtomicOutput for the write-then-rename. Throws FileError. */
+void writeCloud(const std::string& path, Format format, const pcl::PCLPointCloud2& cloud,
+                Encoding encoding);
+
+/** \brief Write a PLY file (vertex element only) to a stream; rgb / rgba become uchar red green
+ * blue (alpha), normal_x.. become nx ny nz. */
+void writePly(std::ostream& out, const pcl::PCLPointCloud2& cloud, bool binary);
+
+/** \brief A temporary file beside `target` that becomes `target` only on commit(); removed by
+ * the destructor otherwise, so a failed run leaves no partial output behind. */
+class AtomicOutput
+{
+public:
+  explicit AtomicOutput(const std::string& target);
+  ~AtomicOutput();
+  AtomicOutput(const AtomicOutput&) = delete;
+  AtomicOutput& operator=(const AtomicOutput&) = delete;
+  /** \brief Where to write. */
+  const std::string& tempPath() const { return temp_; }
+  const std::string& targetPath() const { return target_; }
+  /** \brief Rename the temporary file into place. Throws FileError. */
+  void commit();
+
+private:
+  std::string target_;
+  std::string temp_;
+  bool committed_ = false;
+};
+
+/** \brief Check that a file can be created at `path` (its directory exists and is writable, the
+ * path is not a directory). Returns an empty string or the reason. */
+std::string checkWritable(const std::string& path);
+
+}  // namespace io
+}  // namespace pcl_ecs

@@ -1,0 +1,258 @@
+#include "io_detail.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+
+#include <pcl/io/pcd_io.h>
+#include <unistd.h>
+
+namespace pcl_ecs
+{
+namespace io
+{
+
+namespace fs = std::filesystem;
+
+namespace
+{
+std::string lowerExtension(const std::string& path)
+{
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext;
+}
+}  // namespace
+
+Format formatFromPath(const std::string& path)
+{
+  // One table for every tool: extension -> format.
+  static const std::pair<const char*, Format> table[] = {
+      {".pcd", Format::Pcd}, {".ply", Format::Ply}, {".xyz", Format::Xyz},
+      {".txt", Format::Xyz}, {".pts", Format::Xyz}, {".asc", Format::Xyz}};
+  const std::string ext = lowerExtension(path);
+  for (const auto& [e, f] : table)
+    if (ext == e)
+      return f;
+  return Format::Unknown;
+}
+
+const char* formatName(Format format)
+{
+  switch (format)
+  {
+  case Format::Pcd: return "PCD";
+  case Format::Ply: return "PLY";
+  case Format::Xyz: return "XYZ";
+  default: return "unknown";
+  }
+}
+
+void readCloud(const std::string& path, pcl::PCLPointCloud2& cloud)
+{
+  const Format format = formatFromPath(path);
+  if (format == Format::Unknown)
+    throw FileError(path + ": unknown extension (expected .pcd, .ply, .xyz, .txt, .pts or .asc)");
+  std::error_code ec;
+  const auto status = fs::status(path, ec);
+  if (ec || !fs::exists(status))
+    throw FileError(path + ": no such file");
+  if (fs::is_directory(status))
+    throw FileError(path + ": is a directory, not a point cloud file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw FileError(path + ": cannot be opened for reading (" + std::strerror(errno) + ")");
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad())
+    throw FileError(path + ": read error");
+  if (bytes.empty())
+    throw FileError(path + ": the file is empty");
+  try
+  {
+    switch (format)
+    {
+    case Format::Pcd: parsePcd(bytes, cloud); break;
+    case Format::Ply: parsePly(bytes, cloud); break;
+    default: parseXyz(bytes, cloud); break;
+    }
+  }
+  catch (const FormatError& e)
+  {
+    throw FormatError(path + ": " + e.what());
+  }
+}
+
+void writePly(std::ostream& out, const pcl::PCLPointCloud2& cloud, bool binary)
+{
+  struct Column
+  {
+    std::string name;
+    const pcl::PCLPointField* field;
+    std::uint8_t out_type;
+    int channel;  // -1: plain value; 0..3: byte of a packed colour (r, g, b, a)
+  };
+  std::vector<Column> cols;
+  auto plyTypeName = [](std::uint8_t t) {
+    switch (t)
+    {
+    case pcl::PCLPointField::INT8: return "char";
+    case pcl::PCLPointField::UINT8: return "uchar";
+    case pcl::PCLPointField::INT16: return "short";
+    case pcl::PCLPointField::UINT16: return "ushort";
+    case pcl::PCLPointField::INT32: return "int";
+    case pcl::PCLPointField::UINT32: return "uint";
+    case pcl::PCLPointField::FLOAT64: return "double";
+    default: return "float";
+    }
+  };
+  for (const auto& f : cloud.fields)
+  {
+    if (f.count != 1 || f.name == "_" || detail::datatypeSize(f.datatype) == 0)
+      continue;
+    if (f.name == "rgb" || f.name == "rgba")
+    {
+      const char* names[] = {"red", "green", "blue", "alpha"};
+      for (int c = 0; c < (f.name == "rgba" ? 4 : 3); ++c)
+        cols.push_back({names[c], &f, pcl::PCLPointField::UINT8, c});
+      continue;
+    }
+    std::string name = f.name;
+    if (name == "normal_x") name = "nx";
+    if (name == "normal_y") name = "ny";
+    if (name == "normal_z") name = "nz";
+    cols.push_back({name, &f, f.datatype, -1});
+  }
+  const std::size_t n = static_cast<std::size_t>(cloud.width) * cloud.height;
+  out << "ply\nformat " << (binary ? "binary_little_endian" : "ascii") << " 1.0\n"
+      << "comment written by pcl_ecs\nelement vertex " << n << "\n";
+  for (const auto& c : cols)
+    out << "property " << plyTypeName(c.out_type) << " " << c.name << "\n";
+  out << "end_header\n";
+  out << std::setprecision(9);
+  std::uint8_t buf[8];
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const std::uint8_t* src = cloud.data.data() + i * cloud.point_step;
+    for (std::size_t k = 0; k < cols.size(); ++k)
+    {
+      const Column& c = cols[k];
+      double v = 0.0;
+      if (c.channel >= 0)
+      {
+        std::uint32_t packed = 0;
+        std::memcpy(&packed, src + c.field->offset, 4);
+        const int shift[] = {16, 8, 0, 24};
+        v = static_cast<double>((packed >> shift[c.channel]) & 0xFFu);
+      }
+      else
+        v = detail::loadValue(c.field->datatype, src + c.field->offset);
+      if (binary)
+      {
+        detail::storeValue(v, c.out_type, buf);  // little-endian hosts only (x86, arm64)
+        out.write(reinterpret_cast<const char*>(buf), static_cast<std::streamsize>(detail::datatypeSize(c.out_type)));
+      }
+      else
+      {
+        if (c.out_type == pcl::PCLPointField::FLOAT64)
+          out << std::setprecision(17) << v << std::setprecision(9);
+        else
+          out << v;
+        out << (k + 1 == cols.size() ? '\n' : ' ');
+      }
+    }
+  }
+}
+
+void writeCloud(const std::string& path, Format format, const pcl::PCLPointCloud2& cloud,
+                Encoding encoding)
+{
+  if (format == Format::Ply)
+  {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    if (!out)
+      throw FileError(path + ": cannot be created (" + std::strerror(errno) + ")");
+    writePly(out, cloud, encoding != Encoding::Ascii);
+    out.flush();
+    if (!out)
+      throw FileError(path + ": write error (disk full?)");
+    return;
+  }
+  if (format != Format::Pcd)
+    throw FileError(path + ": can only write .pcd or .ply");
+  pcl::PCDWriter writer;
+  int rc = -1;
+  try
+  {
+    const Eigen::Vector4f origin = Eigen::Vector4f::Zero();
+    const Eigen::Quaternionf orientation = Eigen::Quaternionf::Identity();
+    if (encoding == Encoding::Ascii)
+      rc = writer.writeASCII(path, cloud, origin, orientation, 9);
+    else if (encoding == Encoding::BinaryCompressed)
+      rc = writer.writeBinaryCompressed(path, cloud, origin, orientation);
+    else
+      rc = writer.writeBinary(path, cloud, origin, orientation);
+  }
+  catch (const std::exception& e)
+  {
+    throw FileError(path + ": " + e.what());
+  }
+  if (rc != 0)
+    throw FileError(path + ": could not be written");
+}
+
+namespace
+{
+std::atomic<unsigned> temp_counter{0};
+}
+
+AtomicOutput::AtomicOutput(const std::string& target) : target_(target)
+{
+  const fs::path t(target);
+  const fs::path dir = t.has_parent_path() ? t.parent_path() : fs::path(".");
+  temp_ = (dir / ("." + t.filename().string() + ".tmp-" + std::to_string(::getpid()) + "-" +
+                  std::to_string(temp_counter++)))
+              .string();
+}
+
+AtomicOutput::~AtomicOutput()
+{
+  if (!committed_)
+  {
+    std::error_code ec;
+    fs::remove(temp_, ec);
+  }
+}
+
+void AtomicOutput::commit()
+{
+  std::error_code ec;
+  fs::rename(temp_, target_, ec);
+  if (ec)
+    throw FileError(target_ + ": cannot be put in place (" + ec.message() + ")");
+  committed_ = true;
+}
+
+std::string checkWritable(const std::string& path)
+{
+  const fs::path p(path);
+  std::error_code ec;
+  if (fs::is_directory(p, ec))
+    return "is a directory";
+  const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
+  if (!fs::is_directory(dir, ec))
+    return "directory " + dir.string() + " does not exist";
+  if (::access(dir.c_str(), W_OK) != 0)
+    return "directory " + dir.string() + " is not writable";
+  if (fs::exists(p, ec) && ::access(p.c_str(), W_OK) != 0)
+    return "exists and is not writable";
+  return {};
+}
+
+}  // namespace io
+}  // namespace pcl_ecs

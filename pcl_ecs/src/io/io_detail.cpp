@@ -1,0 +1,134 @@
+#include "io_detail.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+
+namespace pcl_ecs
+{
+namespace io
+{
+namespace detail
+{
+
+namespace
+{
+template <typename T>
+void storeAs(double v, std::uint8_t* dst)
+{
+  T t;
+  if constexpr (std::is_integral_v<T>)
+  {
+    if (std::isnan(v))
+      v = 0;
+    v = std::min(std::max(std::round(v), static_cast<double>(std::numeric_limits<T>::lowest())),
+                 static_cast<double>(std::numeric_limits<T>::max()));
+    t = static_cast<T>(v);
+  }
+  else
+  {
+    t = static_cast<T>(v);
+  }
+  std::memcpy(dst, &t, sizeof(T));
+}
+
+template <typename T>
+double loadAs(const std::uint8_t* src)
+{
+  T t;
+  std::memcpy(&t, src, sizeof(T));
+  return static_cast<double>(t);
+}
+}  // namespace
+
+void storeValue(double value, std::uint8_t datatype, std::uint8_t* dst)
+{
+  switch (datatype)
+  {
+  case pcl::PCLPointField::INT8: storeAs<std::int8_t>(value, dst); break;
+  case pcl::PCLPointField::UINT8: storeAs<std::uint8_t>(value, dst); break;
+  case pcl::PCLPointField::INT16: storeAs<std::int16_t>(value, dst); break;
+  case pcl::PCLPointField::UINT16: storeAs<std::uint16_t>(value, dst); break;
+  case pcl::PCLPointField::INT32: storeAs<std::int32_t>(value, dst); break;
+  case pcl::PCLPointField::UINT32: storeAs<std::uint32_t>(value, dst); break;
+  case pcl::PCLPointField::FLOAT32: storeAs<float>(value, dst); break;
+  case pcl::PCLPointField::FLOAT64: storeAs<double>(value, dst); break;
+  default: break;
+  }
+}
+
+double loadValue(std::uint8_t datatype, const std::uint8_t* src)
+{
+  switch (datatype)
+  {
+  case pcl::PCLPointField::INT8: return loadAs<std::int8_t>(src);
+  case pcl::PCLPointField::UINT8: return loadAs<std::uint8_t>(src);
+  case pcl::PCLPointField::INT16: return loadAs<std::int16_t>(src);
+  case pcl::PCLPointField::UINT16: return loadAs<std::uint16_t>(src);
+  case pcl::PCLPointField::INT32: return loadAs<std::int32_t>(src);
+  case pcl::PCLPointField::UINT32: return loadAs<std::uint32_t>(src);
+  case pcl::PCLPointField::FLOAT32: return loadAs<float>(src);
+  case pcl::PCLPointField::FLOAT64: return loadAs<double>(src);
+  default: return 0.0;
+  }
+}
+
+std::uint32_t addField(pcl::PCLPointCloud2& cloud, const std::string& name, std::uint8_t datatype,
+                       std::uint32_t count)
+{
+  pcl::PCLPointField f;
+  f.name = name;
+  f.datatype = datatype;
+  f.count = count;
+  f.offset = cloud.point_step;
+  cloud.fields.push_back(f);
+  cloud.point_step += static_cast<std::uint32_t>(datatypeSize(datatype) * count);
+  return f.offset;
+}
+
+bool parseNumber(const std::string& token, double& value)
+{
+  if (token.empty())
+    return false;
+  const char* begin = token.c_str();
+  char* end = nullptr;
+  errno = 0;
+  value = std::strtod(begin, &end);
+  if (end != begin + token.size())
+    return false;
+  if (errno == ERANGE && std::isfinite(value) && value != 0.0)
+    return false;
+  return true;
+}
+
+void setDenseFlag(pcl::PCLPointCloud2& cloud)
+{
+  int ix = -1, iy = -1, iz = -1;
+  for (std::size_t f = 0; f < cloud.fields.size(); ++f)
+  {
+    if (cloud.fields[f].name == "x") ix = static_cast<int>(f);
+    if (cloud.fields[f].name == "y") iy = static_cast<int>(f);
+    if (cloud.fields[f].name == "z") iz = static_cast<int>(f);
+  }
+  cloud.is_dense = true;
+  if (ix < 0 || iy < 0 || iz < 0)
+    return;
+  const std::size_t n = static_cast<std::size_t>(cloud.width) * cloud.height;
+  for (std::size_t i = 0; i < n && cloud.is_dense; ++i)
+    for (int f : {ix, iy, iz})
+    {
+      const auto& fld = cloud.fields[static_cast<std::size_t>(f)];
+      const double v = loadValue(fld.datatype, cloud.data.data() + i * cloud.point_step + fld.offset);
+      if (!std::isfinite(v))
+      {
+        cloud.is_dense = false;
+        break;
+      }
+    }
+}
+
+}  // namespace detail
+}  // namespace io
+}  // namespace pcl_ecs

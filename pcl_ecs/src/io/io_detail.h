@@ -1,0 +1,62 @@
+// Internal helpers shared by the readers and writers (not installed).
+#pragma once
+
+#include <cstdint>
+#include <cstring>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <pcl/PCLPointCloud2.h>
+#include <pcl_ecs/io/cloud_io.h>
+
+namespace pcl_ecs
+{
+namespace io
+{
+namespace detail
+{
+
+/// Size in bytes of a PCLPointField datatype (0 for an unknown one).
+inline std::size_t datatypeSize(std::uint8_t datatype)
+{
+  switch (datatype)
+  {
+  case pcl::PCLPointField::INT8:
+  case pcl::PCLPointField::UINT8: return 1;
+  case pcl::PCLPointField::INT16:
+  case pcl::PCLPointField::UINT16: return 2;
+  case pcl::PCLPointField::INT32:
+  case pcl::PCLPointField::UINT32:
+  case pcl::PCLPointField::FLOAT32: return 4;
+  case pcl::PCLPointField::FLOAT64: return 8;
+  default: return 0;
+  }
+}
+
+/// Store `value` as `datatype` at `dst` (integers rounded and clamped to their range).
+void storeValue(double value, std::uint8_t datatype, std::uint8_t* dst);
+/// Read a value of `datatype` at `src` (host byte order).
+double loadValue(std::uint8_t datatype, const std::uint8_t* src);
+
+/// Append a field to `cloud` (count 1) at the current end of a point; returns its offset.
+std::uint32_t addField(pcl::PCLPointCloud2& cloud, const std::string& name, std::uint8_t datatype,
+                       std::uint32_t count = 1);
+
+/// Parse a decimal number; false unless the whole token is one (nan / inf accepted for floats).
+bool parseNumber(const std::string& token, double& value);
+
+template <typename... Args>
+[[noreturn]] void fail(Args&&... args)
+{
+  std::ostringstream os;
+  (os << ... << args);
+  throw FormatError(os.str());
+}
+
+/// Finite x, y, z and a dense flag: PCL's is_dense means "no non-finite xyz".
+void setDenseFlag(pcl::PCLPointCloud2& cloud);
+
+}  // namespace detail
+}  // namespace io
+}  // namespace pcl_ecs

@@ -1,0 +1,149 @@
+#include "cli.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <sstream>
+
+#include <unistd.h>
+
+namespace pcl_ecs
+{
+namespace tools
+{
+
+double parseDoubleFlag(const std::string& flag, const std::string& text)
+{
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE)
+    throw UsageError(flag + ": '" + text + "' is not a number");
+  if (!std::isfinite(v))
+    throw UsageError(flag + ": '" + text + "' is not a finite number");
+  return v;
+}
+
+std::int64_t parseIntFlag(const std::string& flag, const std::string& text)
+{
+  char* end = nullptr;
+  errno = 0;
+  const long long v = std::strtoll(text.c_str(), &end, 10);
+  if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE)
+    throw UsageError(flag + ": '" + text + "' is not an integer");
+  return v;
+}
+
+std::uint64_t parseUnsignedFlag(const std::string& flag, const std::string& text)
+{
+  const std::int64_t v = parseIntFlag(flag, text);
+  if (v < 0)
+    throw UsageError(flag + ": '" + text + "' must not be negative");
+  return static_cast<std::uint64_t>(v);
+}
+
+bool applyFilterFlag(const std::string& flag, const std::function<std::string()>& value,
+                     Parameters& p)
+{
+  if (flag == "--terr")
+    p.error_threshold = parseDoubleFlag(flag, value());
+  else if (flag == "--alpha")
+    p.feature_factor = parseDoubleFlag(flag, value());
+  else if (flag == "--k")
+  {
+    const std::int64_t k = parseIntFlag(flag, value());
+    if (k < 0 || k > 100000)
+      throw UsageError(flag + ": " + std::to_string(k) + " is out of range [5, 200]");
+    p.k_neighbors = static_cast<int>(k);
+  }
+  else if (flag == "--error-form")
+  {
+    const std::string v = value();
+    if (!parseErrorForm(v, p.error_form))
+      throw UsageError(flag + ": '" + v + "' is not 'normalized' or 'paper'");
+  }
+  else if (flag == "--no-adapt")
+    p.adaptive = false;
+  else if (flag == "--adapt-factor")
+    p.adaptive_factor = parseDoubleFlag(flag, value());
+  else if (flag == "--radius-cap")
+    p.radius_cap_factor = parseDoubleFlag(flag, value());
+  else if (flag == "--seed")
+    p.seed = parseUnsignedFlag(flag, value());
+  else if (flag == "--threads")
+  {
+    const std::int64_t t = parseIntFlag(flag, value());
+    if (t < 0 || t > 1024)
+      throw UsageError(flag + ": " + std::to_string(t) + " is out of range [0, 1024]");
+    p.threads = static_cast<int>(t);
+  }
+  else if (flag == "--use-input-normals")
+    p.use_input_normals = true;
+  else if (flag == "--target-size")
+  {
+    p.target_size = parseUnsignedFlag(flag, value());
+    if (p.target_size == 0)
+      throw UsageError(flag + ": must be at least 1");
+  }
+  else
+    return false;
+  return true;
+}
+
+std::string filterFlagsHelp()
+{
+  const Parameters d;
+  std::ostringstream os;
+  os << "Method (defaults are the library's):\n"
+     << "  --terr T            error bound T_err, a fraction of the bounding-box diagonal L, in (0, 1)\n"
+     << "                      (default " << d.error_threshold << "); larger keeps fewer points\n"
+     << "  --alpha A           feature factor α of eq. 4, > 0 (default " << d.feature_factor
+     << "); larger keeps fewer feature points\n"
+     << "  --k K               neighbourhood size, in [5, 200] (default " << d.k_neighbors << ")\n"
+     << "  --error-form F      normalized (scale-free, default) or paper (the paper's literal eq. 14)\n"
+     << "  --no-adapt          do not adapt T_err to local curvature and density (step 5)\n"
+     << "  --adapt-factor F    adaptation factor, in [1, 100] (default " << d.adaptive_factor << ")\n"
+     << "  --radius-cap C      largest ball radius, in mean neighbourhood radii, in (0, 1000]\n"
+     << "                      (default " << d.radius_cap_factor << ")\n"
+     << "  --seed S            seed of the centre order (default " << d.seed
+     << "); same seed, same output\n"
+     << "  --threads N         worker threads, 0 = all (default 0); the output does not depend on it\n"
+     << "  --use-input-normals use the input's normals instead of estimating them\n"
+     << "  --target-size N     aim at N output points (searches T_err; within 1% or the closest)\n";
+  return os.str();
+}
+
+bool stderrIsTerminal()
+{
+  return ::isatty(STDERR_FILENO) == 1;
+}
+
+ProgressLine::ProgressLine(std::string prefix, bool enabled)
+  : prefix_(std::move(prefix)), enabled_(enabled)
+{
+}
+
+ProgressCallback ProgressLine::callback()
+{
+  if (!enabled_)
+    return {};
+  return [this](const char* stage, double fraction) {
+    std::fprintf(stderr, "\r\033[K%s: %s %3.0f%%", prefix_.c_str(), stage, 100.0 * fraction);
+    std::fflush(stderr);
+    dirty_ = true;
+  };
+}
+
+void ProgressLine::finish()
+{
+  if (enabled_ && dirty_)
+  {
+    std::fprintf(stderr, "\r\033[K");
+    std::fflush(stderr);
+  }
+  dirty_ = false;
+}
+
+}  // namespace tools
+}  // namespace pcl_ecs

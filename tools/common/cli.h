@@ -1,0 +1,67 @@
+// cli.h — what every pcl_ecs tool shares: exit codes, strict flag values, the filter flags that
+// fill pcl_ecs::Parameters (validated by the library's own validate()), and the progress line.
+#pragma once
+
+#include <pcl_ecs/parameters.h>
+#include <pcl_ecs/simplify_core.h>
+
+#include <cstdint>
+#include <functional>
+#include <stdexcept>
+#include <string>
+
+namespace pcl_ecs
+{
+namespace tools
+{
+
+/** \brief Documented exit codes of every tool. */
+enum ExitCode : int
+{
+  kExitOk = 0,
+  kExitInternal = 1,  ///< a bug or resource exhaustion: please report
+  kExitUsage = 2,     ///< bad command line: unknown flag, bad value, same input and output
+  kExitInput = 3,     ///< the input cannot be read or is not a usable cloud
+  kExitOutput = 4     ///< an output cannot be written
+};
+
+/** \brief A bad command line; what() is the one line to print. */
+struct UsageError : std::runtime_error
+{
+  using std::runtime_error::runtime_error;
+};
+
+/** \brief Strict number parsing: the whole text must be the number. Throw UsageError naming
+ * the flag. */
+double parseDoubleFlag(const std::string& flag, const std::string& text);
+std::int64_t parseIntFlag(const std::string& flag, const std::string& text);
+std::uint64_t parseUnsignedFlag(const std::string& flag, const std::string& text);
+
+/** \brief If `flag` is one of the filter flags, read its value through `value()` (called only
+ * for flags that take one), store it in `params` and return true. */
+bool applyFilterFlag(const std::string& flag, const std::function<std::string()>& value,
+                     Parameters& params);
+
+/** \brief The --help text of the filter flags, with the library's defaults. */
+std::string filterFlagsHelp();
+
+/** \brief A progress line on stderr ("\r<prefix>: stage 42%"), only when `enabled` (a terminal
+ * and not --quiet); finish() clears it. */
+class ProgressLine
+{
+public:
+  ProgressLine(std::string prefix, bool enabled);
+  ProgressCallback callback();
+  void finish();
+
+private:
+  std::string prefix_;
+  bool enabled_;
+  bool dirty_ = false;
+};
+
+/** \brief True when stderr is a terminal. */
+bool stderrIsTerminal();
+
+}  // namespace tools
+}  // namespace pcl_ecs

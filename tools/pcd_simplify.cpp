@@ -1,0 +1,440 @@
+// pcd_simplify — simplify a scan with the paper's method: feature points kept, everything else
+// covered by error-bounded balls, one optimised point per ball.
+#include "common/cli.h"
+#include "common/point_dispatch.h"
+
+#include <pcl_ecs/feature_aware_cover_simplify.h>
+#include <pcl_ecs/io/cloud_io.h>
+#include <pcl_ecs/version.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <optional>
+
+#include <nlohmann/json.hpp>
+#include <pcl/common/io.h>
+#include <pcl/conversions.h>
+#include <pcl/console/print.h>
+
+namespace fs = std::filesystem;
+using namespace pcl_ecs;
+using namespace pcl_ecs::tools;
+
+namespace
+{
+
+const char* kUsage = R"(Usage: pcd_simplify INPUT OUTPUT [options]
+
+Simplifies a point cloud while keeping its sharp features: points on sharp edges and corners
+(curvature measure above α times the mean) are kept as they are; every other region is covered by
+balls as large as the error bound T_err allows, and each ball is replaced by one optimised point.
+
+INPUT   .pcd (ascii, binary, binary_compressed; organised or not), .ply (ascii or binary), or
+        plain text .xyz/.txt/.pts/.asc (x y z [+ intensity | normals | r g b]).
+OUTPUT  .pcd (binary by default) or .ply. Colour, intensity, normals and labels of the input are
+        kept (the point type follows the input's fields). Written to a temporary file beside
+        OUTPUT and renamed into place only on success: a failed run leaves no output.
+
+)";
+
+const char* kOptions = R"(Size instead of T_err:
+  --target-ratio R    aim at R × the finite input points, R in (0, 1]
+
+Output:
+  --ascii             write ASCII PCD / PLY
+  --compressed        write binary_compressed PCD
+  --features FILE     also write the feature points to FILE (.pcd or .ply)
+  --labels            add a field 'ecs_label' to each output point: 1 feature, 2 representative
+  --stats FILE.json   write what was done: parameters, counts, time per stage, largest error,
+                      input and output bounding boxes
+  --quiet             print nothing but errors
+  --verbose           print the stages and PCL's own messages
+  --help              this text
+  --version           the version
+
+Exit codes:
+  0  success
+  1  internal error (please report it)
+  2  usage error: unknown flag, bad or out-of-range value, OUTPUT equal to INPUT
+  3  input error: missing, unreadable, empty, malformed or truncated file, no finite points,
+     fewer points than the neighbourhood, degenerate cloud (all identical, all on a line)
+  4  output error: directory missing or not writable, disk full
+
+Examples:
+  pcd_simplify scan.pcd small.pcd                      # defaults: T_err 1e-3, α 6
+  pcd_simplify scan.pcd small.pcd --terr 5e-4          # finer: more points, smaller error
+  pcd_simplify scan.ply small.ply --target-ratio 0.05  # keep about 5% of the points
+  pcd_simplify part.pcd out.pcd --alpha 4 --features edges.pcd --labels --stats run.json
+  pcd_simplify kinect.pcd out.pcd --compressed         # organised RGB in, unorganised RGB out
+)";
+
+struct Options
+{
+  std::string input, output, features, stats;
+  Parameters params;
+  double target_ratio = 0.0;
+  io::Encoding encoding = io::Encoding::Binary;
+  bool labels = false, quiet = false, verbose = false;
+};
+
+/// Thrown with an exit code and one line for the user.
+struct ToolError : std::runtime_error
+{
+  ToolError(int c, const std::string& what) : std::runtime_error(what), code(c) {}
+  int code;
+};
+
+Options parseArgs(int argc, char** argv, bool& done)
+{
+  Options o;
+  std::vector<std::string> positional;
+  done = false;
+  for (int i = 1; i < argc; ++i)
+  {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc)
+        throw UsageError(a + " needs a value");
+      return argv[++i];
+    };
+    if (a == "--help" || a == "-h")
+    {
+      std::cout << kUsage << filterFlagsHelp() << "\n" << kOptions;
+      done = true;
+      return o;
+    }
+    if (a == "--version")
+    {
+      std::cout << "pcd_simplify (pcl_ecs) " << PCL_ECS_VERSION_STRING << "\n";
+      done = true;
+      return o;
+    }
+    if (applyFilterFlag(a, value, o.params))
+      continue;
+    if (a == "--target-ratio")
+    {
+      o.target_ratio = parseDoubleFlag(a, value());
+      if (!(o.target_ratio > 0.0 && o.target_ratio <= 1.0))
+        throw UsageError("--target-ratio: must be in (0, 1]");
+    }
+    else if (a == "--ascii")
+      o.encoding = io::Encoding::Ascii;
+    else if (a == "--compressed")
+      o.encoding = io::Encoding::BinaryCompressed;
+    else if (a == "--features")
+      o.features = value();
+    else if (a == "--labels")
+      o.labels = true;
+    else if (a == "--stats")
+      o.stats = value();
+    else if (a == "--quiet" || a == "-q")
+      o.quiet = true;
+    else if (a == "--verbose" || a == "-v")
+      o.verbose = true;
+    else if (a.size() > 1 && a[0] == '-')
+      throw UsageError("unknown option '" + a + "' (see --help)");
+    else
+      positional.push_back(a);
+  }
+  if (positional.size() != 2)
+    throw UsageError("expected INPUT and OUTPUT, got " + std::to_string(positional.size()) +
+                     " file name(s) (see --help)");
+  o.input = positional[0];
+  o.output = positional[1];
+  if (o.target_ratio > 0.0 && o.params.target_size > 0)
+    throw UsageError("--target-size and --target-ratio exclude each other");
+  const std::string why = validate(o.params);
+  if (!why.empty())
+    throw UsageError(why);
+  for (const std::string* out : {&o.output, &o.features})
+  {
+    if (out->empty())
+      continue;
+    const io::Format f = io::formatFromPath(*out);
+    if (f != io::Format::Pcd && f != io::Format::Ply)
+      throw UsageError(*out + ": output must be .pcd or .ply");
+  }
+  if (!o.stats.empty() && fs::path(o.stats).extension() != ".json")
+    throw UsageError(o.stats + ": --stats writes JSON; give it a .json name");
+  // Refuse to overwrite the input with the output (or the features / stats).
+  std::error_code ec;
+  for (const std::string* out : {&o.output, &o.features, &o.stats})
+  {
+    if (out->empty())
+      continue;
+    const bool same = fs::exists(*out, ec) ? fs::equivalent(o.input, *out, ec)
+                                           : fs::weakly_canonical(o.input, ec) == fs::weakly_canonical(*out, ec);
+    if (same)
+      throw UsageError(*out + ": is the input file; choose another output name");
+  }
+  return o;
+}
+
+nlohmann::json bboxJson(const pcl::PCLPointCloud2& blob)
+{
+  pcl::PointCloud<pcl::PointXYZ> xyz;
+  pcl::fromPCLPointCloud2(blob, xyz);
+  double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                  std::numeric_limits<double>::infinity()};
+  double hi[3] = {-lo[0], -lo[1], -lo[2]};
+  std::size_t finite = 0;
+  for (const auto& p : xyz)
+  {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      continue;
+    ++finite;
+    const double v[3] = {p.x, p.y, p.z};
+    for (int k = 0; k < 3; ++k)
+    {
+      lo[k] = std::min(lo[k], v[k]);
+      hi[k] = std::max(hi[k], v[k]);
+    }
+  }
+  if (finite == 0)
+    return nullptr;
+  return {{"min", {lo[0], lo[1], lo[2]}}, {"max", {hi[0], hi[1], hi[2]}}};
+}
+
+/// Append a uint8 field 'ecs_label' (1 feature, 2 representative) to every point of `blob`.
+void addLabels(pcl::PCLPointCloud2& blob, const std::vector<PointLabel>& labels)
+{
+  const std::size_t n = static_cast<std::size_t>(blob.width) * blob.height;
+  const std::uint32_t old_step = blob.point_step;
+  pcl::PCLPointField f;
+  f.name = "ecs_label";
+  f.offset = old_step;
+  f.datatype = pcl::PCLPointField::UINT8;
+  f.count = 1;
+  std::vector<std::uint8_t> data(n * (old_step + 1));
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    std::memcpy(data.data() + i * (old_step + 1), blob.data.data() + i * old_step, old_step);
+    data[i * (old_step + 1) + old_step] = static_cast<std::uint8_t>(labels[i]);
+  }
+  blob.fields.push_back(f);
+  blob.point_step = old_step + 1;
+  blob.row_step = blob.point_step * blob.width;
+  blob.data = std::move(data);
+}
+
+struct RunOutput
+{
+  pcl::PCLPointCloud2 output, features;
+  Result result;
+  std::string point_type, dropped;
+};
+
+template <typename PointT>
+RunOutput simplifyAs(const pcl::PCLPointCloud2& blob, const Options& o, const ProgressCallback& progress)
+{
+  RunOutput r;
+  auto cloud = std::make_shared<pcl::PointCloud<PointT>>();
+  pcl::fromPCLPointCloud2(blob, *cloud);
+  FeatureAwareCoverSimplify<PointT> filter;
+  Parameters params = o.params;
+  if (o.target_ratio > 0.0)
+  {
+    std::size_t finite = 0;
+    for (const auto& p : *cloud)
+      finite += (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) ? 1 : 0;
+    params.target_size = std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(o.target_ratio * finite)));
+  }
+  filter.setParameters(params);
+  filter.setProgressCallback(progress);
+  filter.setInputCloud(cloud);
+  pcl::PointCloud<PointT> out;
+  filter.filter(out);
+  r.result = filter.getResult();
+  if (!r.result.error.empty())
+  {
+    const bool internal = r.result.error.rfind("internal error", 0) == 0;
+    throw ToolError(internal ? kExitInternal : kExitInput, o.input + ": " + r.result.error);
+  }
+  pcl::toPCLPointCloud2(out, r.output);
+  if (!o.features.empty())
+  {
+    pcl::PointCloud<PointT> feats;
+    for (std::size_t i = 0; i < out.size(); ++i)
+      if (r.result.labels[i] == PointLabel::Feature)
+        feats.push_back(out[i]);
+    pcl::toPCLPointCloud2(feats, r.features);
+  }
+  if (o.labels)
+    addLabels(r.output, r.result.labels);
+  return r;
+}
+
+nlohmann::json statsJson(const Options& o, const RunOutput& run, const pcl::PCLPointCloud2& input)
+{
+  const Summary& s = run.result.summary;
+  const StageTimings& t = s.timings;
+  const Parameters& p = o.params;
+  nlohmann::json j;
+  j["tool"] = "pcd_simplify";
+  j["version"] = PCL_ECS_VERSION_STRING;
+  j["input"] = o.input;
+  j["output"] = o.output;
+  j["point_type"] = run.point_type;
+  j["parameters"] = {{"error_threshold", p.error_threshold},
+                     {"error_threshold_used", s.error_threshold},
+                     {"feature_factor", p.feature_factor},
+                     {"k_neighbors", p.k_neighbors},
+                     {"error_form", toString(p.error_form)},
+                     {"adaptive", p.adaptive},
+                     {"adaptive_factor", p.adaptive_factor},
+                     {"radius_cap_factor", p.radius_cap_factor},
+                     {"seed", p.seed},
+                     {"threads", p.threads},
+                     {"use_input_normals", p.use_input_normals},
+                     {"target_size", p.target_size},
+                     {"target_ratio", o.target_ratio}};
+  j["counts"] = {{"input_points", s.input_points},
+                 {"finite_points", s.finite_points},
+                 {"feature_points", s.feature_points},
+                 {"balls", s.balls},
+                 {"output_points", s.output_points},
+                 {"centre_fallbacks", s.centre_fallbacks},
+                 {"target_iterations", s.target_iterations}};
+  j["geometry"] = {{"bbox_diagonal", s.bbox_diagonal},
+                   {"feature_threshold", s.feature_threshold},
+                   {"mean_spacing", s.mean_spacing},
+                   {"neighborhood_radius", s.neighborhood_radius},
+                   {"mean_abs_curvature", s.mean_abs_curvature},
+                   {"max_error", s.max_error},
+                   {"max_error_units", s.max_error * s.bbox_diagonal}};
+  j["timings_s"] = {{"preparation", t.preparation}, {"neighbors", t.neighbors},
+                    {"normals", t.normals},         {"weights", t.weights},
+                    {"features", t.features},       {"density", t.density},
+                    {"curvature", t.curvature},     {"cover", t.cover},
+                    {"output", t.output},           {"total", t.total}};
+  j["input_bbox"] = bboxJson(input);
+  j["output_bbox"] = bboxJson(run.output);
+  return j;
+}
+
+int runTool(int argc, char** argv)
+{
+  bool done = false;
+  const Options o = parseArgs(argc, argv, done);
+  if (done)
+    return kExitOk;
+  pcl::console::setVerbosityLevel(o.verbose ? pcl::console::L_INFO : pcl::console::L_ALWAYS);
+
+  // Fail early on outputs that cannot be written, before any long work.
+  for (const std::string* out : {&o.output, &o.features, &o.stats})
+    if (!out->empty())
+    {
+      const std::string why = io::checkWritable(*out);
+      if (!why.empty())
+        throw ToolError(kExitOutput, *out + ": " + why);
+    }
+
+  pcl::PCLPointCloud2 input;
+  try
+  {
+    io::readCloud(o.input, input);
+  }
+  catch (const std::exception& e)
+  {
+    throw ToolError(kExitInput, e.what());
+  }
+  RunOutput run;
+  const PointKind kind = choosePointKind(input, run.dropped);
+  if (!run.dropped.empty() && !o.quiet)
+    std::fprintf(stderr, "pcd_simplify: %s: no point type holds all fields; dropping %s\n",
+                 o.input.c_str(), run.dropped.c_str());
+  if (o.params.use_input_normals && kind != PointKind::Normal && kind != PointKind::XYZRGBNormal &&
+      kind != PointKind::XYZINormal)
+    throw ToolError(kExitInput, o.input + ": --use-input-normals given but the file has no normals");
+
+  ProgressLine progress("pcd_simplify", !o.quiet && stderrIsTerminal());
+  const std::string point_type = pointKindName(kind);
+  RunOutput r = dispatchPointKind(kind, [&](auto tag) {
+    return simplifyAs<decltype(tag)>(input, o, progress.callback());
+  });
+  progress.finish();
+  r.point_type = point_type;
+
+  // Write everything to temporaries, then rename all into place.
+  std::vector<std::unique_ptr<io::AtomicOutput>> outputs;
+  try
+  {
+    outputs.push_back(std::make_unique<io::AtomicOutput>(o.output));
+    io::writeCloud(outputs.back()->tempPath(), io::formatFromPath(o.output), r.output, o.encoding);
+    if (!o.features.empty())
+    {
+      outputs.push_back(std::make_unique<io::AtomicOutput>(o.features));
+      io::writeCloud(outputs.back()->tempPath(), io::formatFromPath(o.features), r.features, o.encoding);
+    }
+    if (!o.stats.empty())
+    {
+      outputs.push_back(std::make_unique<io::AtomicOutput>(o.stats));
+      std::ofstream js(outputs.back()->tempPath());
+      js << statsJson(o, r, input).dump(2) << "\n";
+      js.flush();
+      if (!js)
+        throw io::FileError(o.stats + ": write error");
+    }
+    for (auto& out : outputs)
+      out->commit();
+  }
+  catch (const io::FileError& e)
+  {
+    throw ToolError(kExitOutput, e.what());
+  }
+
+  if (!o.quiet)
+  {
+    const Summary& s = r.result.summary;
+    std::printf("%s: %zu -> %zu points (%.2f%%): %zu features, %zu balls; T_err %.3g, max error "
+                "%.3g L; %.2f s\n",
+                o.output.c_str(), s.finite_points, s.output_points,
+                100.0 * static_cast<double>(s.output_points) / static_cast<double>(std::max<std::size_t>(1, s.finite_points)),
+                s.feature_points, s.balls, s.error_threshold, s.max_error, s.timings.total);
+  }
+  if (o.verbose)
+  {
+    const StageTimings& t = r.result.summary.timings;
+    std::fprintf(stderr,
+                 "stages (s): neighbours %.3f normals %.3f weights %.3f features %.3f density %.3f "
+                 "curvature %.3f cover %.3f output %.3f\n",
+                 t.neighbors, t.normals, t.weights, t.features, t.density, t.curvature, t.cover, t.output);
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  try
+  {
+    return runTool(argc, argv);
+  }
+  catch (const UsageError& e)
+  {
+    std::fprintf(stderr, "pcd_simplify: %s\n", e.what());
+    return kExitUsage;
+  }
+  catch (const ToolError& e)
+  {
+    std::fprintf(stderr, "pcd_simplify: %s\n", e.what());
+    return e.code;
+  }
+  catch (const std::bad_alloc&)
+  {
+    std::fprintf(stderr, "pcd_simplify: out of memory\n");
+    return kExitInternal;
+  }
+  catch (const std::exception& e)
+  {
+    std::fprintf(stderr, "pcd_simplify: internal error: %s\n", e.what());
+    return kExitInternal;
+  }
+}
