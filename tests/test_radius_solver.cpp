@@ -22,7 +22,12 @@ struct AllPoints : pcl_ecs::CandidateSource
       all.push_back({(cloud[i].getVector3fMap().cast<double>() - c).norm(), static_cast<int>(i)});
     std::sort(all.begin(), all.end());
   }
-  void ensure(double, std::vector<pcl_ecs::BallCandidate>& sorted) override { sorted = all; }
+  bool ensure(double, std::vector<pcl_ecs::BallCandidate>& sorted) override
+  {
+    const bool changed = sorted.size() != all.size();
+    sorted = all;
+    return changed;
+  }
   std::vector<pcl_ecs::BallCandidate> all;
 };
 
@@ -48,7 +53,7 @@ TEST(RadiusSolver, PlaneReachesTheCapWithZeroError)
   const Eigen::Vector3d centre = (*f.cloud)[c].getVector3fMap().cast<double>();
   AllPoints src(*f.cloud, centre);
   std::vector<pcl_ecs::BallCandidate> sorted;
-  const auto sol = pcl_ecs::solveRadius(f.samples(), centre, 0.05, 0.4, 1e-6, 2.0,
+  const auto sol = pcl_ecs::solveRadius(f.samples(), centre, 0.05, 0.4, 0.0, 1e-6, 2.0,
                                         pcl_ecs::ErrorForm::Normalized, src, sorted);
   EXPECT_DOUBLE_EQ(sol.radius, 0.4);
   EXPECT_LT(sol.error, 1e-9);
@@ -70,16 +75,21 @@ TEST(RadiusSolver, SphereErrorGrowsWithTheRadiusAndTheSolveIsTight)
   }
   const double T = 1e-3;
   std::vector<pcl_ecs::BallCandidate> sorted;
-  const auto sol = pcl_ecs::solveRadius(f.samples(), centre, 0.01, 1.0, T, L,
+  const auto sol = pcl_ecs::solveRadius(f.samples(), centre, 0.01, 1.0, 0.0, T, L,
                                         pcl_ecs::ErrorForm::Normalized, src, sorted);
   ASSERT_GT(sol.radius, 0.01);
   EXPECT_LE(sol.error, T);
-  // Tight: a radius 2% larger already exceeds the tolerance (the bisection stops at 0.1%).
-  const auto above = pcl_ecs::evaluateRadius(f.samples(), centre, src.all, sol.radius * 1.02, L,
+  // Tight: a radius 3% larger already exceeds the tolerance (the bisection stops within 2%).
+  const auto above = pcl_ecs::evaluateRadius(f.samples(), centre, src.all, sol.radius * 1.03, L,
                                              pcl_ecs::ErrorForm::Normalized);
   EXPECT_GT(above.error, T);
   // The representative of a sphere cap sits within the error of the sphere (relative to L).
   EXPECT_LT(std::abs((centre + sol.x_min).norm() - 1.0), 2.0 * T * L);
+  // Starting from a guess finds a radius just as tight.
+  const auto guessed = pcl_ecs::solveRadius(f.samples(), centre, 0.01, 1.0, 0.05, T, L,
+                                            pcl_ecs::ErrorForm::Normalized, src, sorted);
+  EXPECT_LE(guessed.error, T);
+  EXPECT_NEAR(guessed.radius, sol.radius, 0.03 * sol.radius);
 }
 
 TEST(RadiusSolver, WhenTheFloorFailsTheBallHoldsItsCentreAlone)
@@ -88,7 +98,7 @@ TEST(RadiusSolver, WhenTheFloorFailsTheBallHoldsItsCentreAlone)
   const Eigen::Vector3d centre = (*f.cloud)[10].getVector3fMap().cast<double>();
   AllPoints src(*f.cloud, centre);
   std::vector<pcl_ecs::BallCandidate> sorted;
-  const auto sol = pcl_ecs::solveRadius(f.samples(), centre, 0.05, 1.0, 1e-12, 3.4,
+  const auto sol = pcl_ecs::solveRadius(f.samples(), centre, 0.05, 1.0, 0.0, 1e-12, 3.4,
                                         pcl_ecs::ErrorForm::Normalized, src, sorted);
   EXPECT_EQ(sol.radius, 0.0);
   EXPECT_EQ(sol.error, 0.0);

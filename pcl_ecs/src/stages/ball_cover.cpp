@@ -24,10 +24,10 @@ public:
   {
   }
 
-  void ensure(double needed, std::vector<BallCandidate>& sorted) override
+  bool ensure(double needed, std::vector<BallCandidate>& sorted) override
   {
     if (needed <= queried_)
-      return;
+      return false;
     double radius = std::min(max_radius_, std::max(needed, next_radius_));
     search_.radiusSearch(centre_, radius, found_, d2_);
     sorted.clear();
@@ -37,7 +37,8 @@ public:
     std::sort(sorted.begin(), sorted.end());
     // Anything at or below the radius asked for is complete; tell the solver so.
     queried_ = radius >= max_radius_ ? std::numeric_limits<double>::infinity() : radius;
-    next_radius_ = 2.0 * radius;
+    next_radius_ = 1.5 * radius;
+    return true;
   }
 
 private:
@@ -88,11 +89,12 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
 
     // Steps 4-5: the radius and the optimised point. The floor is dens_c (eq. 5), the cap a
     // multiple of the mean spacing.
-    RadiusQuerySource source(in.nonfeature_search, in.cloud[c], 2.0 * cap,
-                             2.0 * std::max(typical_radius, in.density[cs]) * 1.5);
+    const double guess = std::max(typical_radius, in.density[cs]);
+    RadiusQuerySource source(in.nonfeature_search, in.cloud[c], 2.0 * cap, 2.0 * 1.25 * guess);
     sorted.clear();
-    const RadiusSolution sol = solveRadius(samples, centre, in.density[cs], cap, ball.tolerance,
-                                           in.bbox_diagonal, params.error_form, source, sorted);
+    const RadiusSolution sol = solveRadius(samples, centre, in.density[cs], cap, guess,
+                                           ball.tolerance, in.bbox_diagonal, params.error_form,
+                                           source, sorted);
     out.radius_evaluations += static_cast<std::size_t>(sol.evaluations);
     ball.radius = sol.radius;
     ball.error = sol.error;

@@ -22,7 +22,12 @@ struct Quadric
   /** \brief Add the plane through `offset` (p_j - centre) with unit normal `n`, weighted by w. */
   void add(double w, const Eigen::Vector3d& n, const Eigen::Vector3d& offset)
   {
-    const double d = n.dot(offset);
+    addPlane(w, n, n.dot(offset));
+  }
+
+  /** \brief Add the plane n·x = d (unit n, d = n·(p_j - centre)), weighted by w. */
+  void addPlane(double w, const Eigen::Vector3d& n, double d)
+  {
     A.noalias() += w * n * n.transpose();
     b += (w * d) * n;
     c += w * d * d;

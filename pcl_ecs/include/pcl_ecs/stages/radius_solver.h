@@ -5,10 +5,10 @@
 //   E(r) = sqrt(Q(x_min)) / L               (paper, the literal eq. 14)
 // with w_j = a_j G_{2r}(|p_j - c|) over the non-feature p_j within R = 2r.
 //
-// E is not strictly monotone on real data: the solve brackets first (grows r from the floor by
-// ×1.5 until E exceeds the tolerance or r reaches the cap), then bisects, and keeps the largest r
-// found with E(r) <= tolerance. If even the floor fails, the ball holds its centre alone (r = 0,
-// E = 0): the reached error never exceeds the tolerance.
+// E is not strictly monotone on real data: the solve brackets first (from a guess, growing r until
+// E exceeds the tolerance or r reaches the cap), then bisects, and keeps the largest r found with
+// E(r) <= tolerance. If even the floor fails, the ball holds its centre alone (r = 0, E = 0): the
+// reached error never exceeds the tolerance.
 #pragma once
 
 #include <pcl_ecs/parameters.h>
@@ -51,7 +51,25 @@ struct RadiusEvaluation
   double weight_sum = 0.0;
 };
 
-/** \brief Evaluate eq. 13-14 at radius r (> 0) over the prefix of `sorted` within 2r. */
+/** \brief The tangent plane of one candidate relative to the centre, with its eq. 1 weight:
+ * precomputed once per radius query, read by every E(r). */
+struct CandidatePlane
+{
+  Eigen::Vector3d normal;  ///< n_j
+  double offset;           ///< n_j · (p_j - c)
+  double weight;           ///< a_j
+  double distance;         ///< |p_j - c|
+};
+
+/** \brief The planes of `sorted`, in the same order. */
+void candidatePlanes(const QuadricSamples& samples, const Eigen::Vector3d& centre,
+                     const std::vector<BallCandidate>& sorted, std::vector<CandidatePlane>& planes);
+
+/** \brief Evaluate eq. 13-14 at radius r (> 0) over the prefix of `planes` within 2r. */
+RadiusEvaluation evaluateRadius(const std::vector<CandidatePlane>& planes, double r, double L,
+                                ErrorForm form);
+
+/** \brief The same from the candidates (computes their planes first). */
 RadiusEvaluation evaluateRadius(const QuadricSamples& samples, const Eigen::Vector3d& centre,
                                 const std::vector<BallCandidate>& sorted, double r, double L,
                                 ErrorForm form);
@@ -66,20 +84,26 @@ struct RadiusSolution
 };
 
 /** \brief Called when the solver needs candidates out to `needed_query_radius`: it must make
- * `sorted` hold every non-feature point within that distance, sorted (BallCandidate::operator<). */
+ * `sorted` hold every non-feature point within that distance, sorted (BallCandidate::operator<),
+ * and return true when it changed `sorted`. */
 struct CandidateSource
 {
   virtual ~CandidateSource() = default;
-  virtual void ensure(double needed_query_radius, std::vector<BallCandidate>& sorted) = 0;
+  virtual bool ensure(double needed_query_radius, std::vector<BallCandidate>& sorted) = 0;
 };
 
 /** \brief Eq. 15 solved for r in [floor, cap].
+ * The bracket starts at `guess` (clamped to [floor, cap]; a typical radius of recent balls saves
+ * evaluations): if E(guess) <= tolerance it grows by ×1.25 until E exceeds it or the cap is
+ * reached, otherwise the floor must pass. Bisection then stops when the bracket is within 2%.
  * \param[in] floor   smallest radius tried (the distance to c's nearest non-feature neighbour)
  * \param[in] cap     largest radius allowed (> 0)
+ * \param[in] guess   first radius tried (<= 0: the floor)
  * \param[in] tolerance T_err for this ball (after step 5)
  * \param[in,out] source supplies candidates as larger radii are tried */
 RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d& centre,
-                           double floor, double cap, double tolerance, double L, ErrorForm form,
-                           CandidateSource& source, std::vector<BallCandidate>& sorted);
+                           double floor, double cap, double guess, double tolerance, double L,
+                           ErrorForm form, CandidateSource& source,
+                           std::vector<BallCandidate>& sorted);
 
 }  // namespace pcl_ecs
