@@ -71,7 +71,7 @@ RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d&
 
   std::vector<CandidatePlane> planes;
   auto eval = [&](double r) {
-    if (source.ensure(2.0 * r, sorted))
+    if (source.ensure(2.0 * r, sorted) || planes.size() != sorted.size())
       candidatePlanes(samples, centre, sorted, planes);
     ++sol.evaluations;
     return evaluateRadius(planes, r, L, form);
