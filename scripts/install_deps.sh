@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Installs the Debian packages pcl_ecs needs (skips what is already installed).
+set -euo pipefail
+pkgs=(
+  build-essential cmake ninja-build pkg-config git
+  libpcl-dev libeigen3-dev libflann-dev libboost-dev
+  libopenmpi-dev            # Debian's VTK config (pulled in by PCL) needs MPI's C target
+  libgtest-dev nlohmann-json3-dev
+  clang libclang-rt-14-dev  # libFuzzer for the loader fuzz target
+  python3
+)
+missing=()
+for p in "${pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install_deps: all packages present"
+  exit 0
+fi
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO=sudo; fi
+echo "install_deps: installing ${missing[*]}"
+$SUDO apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "install_deps: done"

@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# The project's test command (CI runs exactly this): installs what is missing, builds in Release
+# and runs every test; then the same tests under AddressSanitizer + UBSan; then fuzzes the cloud
+# readers for a bounded time. PCL_ECS_QUICK=1 skips the sanitizer and fuzz stages.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/install_deps.sh
+
+echo "== Release build and tests"
+bash scripts/build.sh
+ctest --test-dir build --output-on-failure --parallel 2
+
+if [ "${PCL_ECS_QUICK:-0}" = "1" ]; then
+  exit 0
+fi
+
+echo "== AddressSanitizer + UndefinedBehaviorSanitizer build and tests"
+BUILD_DIR=build-asan bash scripts/build.sh -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPCL_ECS_SANITIZE=ON \
+  -DPCL_ECS_BUILD_BENCH=OFF
+ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
+UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  ctest --test-dir build-asan --output-on-failure --parallel 2 -E install_consumer
+
+echo "== Fuzzing the PCD / PLY / XYZ readers (${PCL_ECS_FUZZ_SECONDS:-60} s)"
+bash scripts/fuzz.sh "${PCL_ECS_FUZZ_SECONDS:-60}"
+
+echo "== Release tests again (the closing summary)"
+ctest --test-dir build --parallel 2

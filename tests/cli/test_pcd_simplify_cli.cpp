@@ -1,0 +1,343 @@
+// Integration tests of the pcd_simplify binary: real runs on the shared scans, the target-size
+// mode, attributes, the stats file, and every bad input with its exit code and no output left.
+#include <pcl_ecs/io/cloud_io.h>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <pcl/conversions.h>
+#include <pcl/point_types.h>
+
+namespace fs = std::filesystem;
+
+namespace
+{
+const std::string kTool = PCD_SIMPLIFY_PATH;
+const std::string kShared = PCL_ECS_SHARED_DATA_DIR;
+
+struct RunResult
+{
+  int code = -1;
+  std::string out, err;
+};
+
+class Cli : public ::testing::Test
+{
+protected:
+  void SetUp() override
+  {
+    char tmpl[] = "/tmp/pcd_simplify_test_XXXXXX";
+    ASSERT_NE(::mkdtemp(tmpl), nullptr);
+    dir_ = tmpl;
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::string path(const std::string& name) const { return (fs::path(dir_) / name).string(); }
+
+  RunResult run(const std::string& args) const
+  {
+    const std::string out = path(".stdout"), err = path(".stderr");
+    const std::string cmd = kTool + " " + args + " > " + out + " 2> " + err;
+    const int status = std::system(cmd.c_str());
+    RunResult r;
+    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = slurp(out);
+    r.err = slurp(err);
+    fs::remove(out);
+    fs::remove(err);
+    return r;
+  }
+
+  static std::string slurp(const std::string& p)
+  {
+    std::ifstream in(p, std::ios::binary);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  }
+
+  void write(const std::string& name, const std::string& content) const
+  {
+    std::ofstream(path(name), std::ios::binary) << content;
+  }
+
+  /// Nothing but the inputs in the directory: no output, no temporary left behind.
+  void expectNoOutput(const std::set<std::string>& inputs) const
+  {
+    for (const auto& e : fs::directory_iterator(dir_))
+      EXPECT_TRUE(inputs.count(e.path().filename().string())) << "left behind: " << e.path();
+  }
+
+  void expectRefused(const std::string& args, int code, const std::set<std::string>& inputs,
+                     const std::string& message_part)
+  {
+    const RunResult r = run(args);
+    EXPECT_EQ(r.code, code) << args << "\n" << r.err;
+    EXPECT_NE(r.err.find(message_part), std::string::npos) << "stderr: " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line expected: " << r.err;
+    expectNoOutput(inputs);
+  }
+
+  std::string dir_;
+};
+
+pcl::PCLPointCloud2 load(const std::string& p)
+{
+  pcl::PCLPointCloud2 c;
+  pcl_ecs::io::readCloud(p, c);
+  return c;
+}
+
+std::string pcdHeader(const std::string& fields, const std::string& size, const std::string& type,
+                      std::size_t points, const std::string& data)
+{
+  std::ostringstream os;
+  os << "VERSION 0.7\nFIELDS " << fields << "\nSIZE " << size << "\nTYPE " << type
+     << "\nWIDTH " << points << "\nHEIGHT 1\nPOINTS " << points << "\nDATA " << data << "\n";
+  return os.str();
+}
+
+std::string asciiPcd(const std::vector<std::array<float, 3>>& pts)
+{
+  std::ostringstream os;
+  os << pcdHeader("x y z", "4 4 4", "F F F", pts.size(), "ascii");
+  for (const auto& p : pts)
+    os << p[0] << " " << p[1] << " " << p[2] << "\n";
+  return os.str();
+}
+}  // namespace
+
+TEST_F(Cli, RunsOnEverySharedScan)
+{
+  for (const char* name : {"bunny.pcd", "bun000_rangescan.pcd", "fandisk_scan.pcd",
+                           "table_scene_mug_organized.pcd", "terrain_csite1_utm.pcd",
+                           "bunny_mesh.ply", "fandisk_mesh.ply"})
+  {
+    const std::string in = kShared + "/" + name;
+    const std::string out = path(std::string("out_") + name);
+    const RunResult r = run(in + " " + out + " --quiet");
+    ASSERT_EQ(r.code, 0) << name << ": " << r.err;
+    EXPECT_TRUE(r.out.empty());
+    const auto input = load(in);
+    const auto output = load(out);
+    EXPECT_GT(output.width, 0u) << name;
+    EXPECT_LT(output.width, input.width * input.height / 2) << name;
+    EXPECT_EQ(output.height, 1u);
+  }
+}
+
+TEST_F(Cli, TargetSizeAndRatio)
+{
+  const std::string in = kShared + "/fandisk_scan.pcd";
+  RunResult r = run(in + " " + path("a.pcd") + " --target-size 6000 -q");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NEAR(load(path("a.pcd")).width, 6000.0, 60.0);
+  r = run(in + " " + path("b.ply") + " --target-ratio 0.03 -q");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NEAR(load(path("b.ply")).width, 3600.0, 36.0);
+}
+
+TEST_F(Cli, ColourOfTheOrganisedKinectCloudSurvives)
+{
+  const std::string in = kShared + "/table_scene_mug_organized.pcd";
+  for (const char* out : {"mug.pcd", "mug.ply"})
+  {
+    const RunResult r = run(in + " " + path(out) + " -q --labels");
+    ASSERT_EQ(r.code, 0) << r.err;
+    const auto input = load(in);
+    const auto output = load(path(out));
+    pcl::PointCloud<pcl::PointXYZRGB> a, b;
+    pcl::fromPCLPointCloud2(input, a);
+    pcl::fromPCLPointCloud2(output, b);
+    std::set<std::uint32_t> colours;
+    for (const auto& p : a)
+      colours.insert(p.rgba & 0xFFFFFFu);
+    std::size_t real = 0, non_grey = 0;
+    for (const auto& p : b)
+    {
+      real += colours.count(p.rgba & 0xFFFFFFu);
+      non_grey += (p.r != p.g || p.g != p.b);
+    }
+    EXPECT_EQ(real, b.size()) << "every colour must be a real input colour";
+    EXPECT_GT(non_grey, b.size() / 10);
+    EXPECT_TRUE(std::any_of(output.fields.begin(), output.fields.end(),
+                            [](const auto& f) { return f.name == "ecs_label"; }));
+  }
+}
+
+TEST_F(Cli, StatsAgreeWithTheOutputAndFeaturesFile)
+{
+  const std::string in = kShared + "/fandisk_scan.pcd";
+  const RunResult r = run(in + " " + path("o.pcd") + " --stats " + path("s.json") + " --features " +
+                          path("f.pcd") + " --alpha 5 --ascii");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("->"), std::string::npos);
+  const auto j = nlohmann::json::parse(slurp(path("s.json")));
+  const auto out = load(path("o.pcd"));
+  const auto feats = load(path("f.pcd"));
+  EXPECT_EQ(j["counts"]["output_points"].get<std::size_t>(), out.width);
+  EXPECT_EQ(j["counts"]["feature_points"].get<std::size_t>(), feats.width);
+  EXPECT_EQ(j["counts"]["feature_points"].get<std::size_t>() + j["counts"]["balls"].get<std::size_t>(), out.width);
+  EXPECT_EQ(j["counts"]["input_points"].get<std::size_t>(), 120000u);
+  EXPECT_DOUBLE_EQ(j["parameters"]["feature_factor"].get<double>(), 5.0);
+  EXPECT_LE(j["geometry"]["max_error"].get<double>(), 2.0 * j["parameters"]["error_threshold"].get<double>());
+  EXPECT_GT(j["timings_s"]["total"].get<double>(), 0.0);
+  // The output's bounding box lies within the input's (grown by a ball radius at most).
+  for (int k = 0; k < 3; ++k)
+  {
+    EXPECT_GE(j["output_bbox"]["min"][k].get<double>(), j["input_bbox"]["min"][k].get<double>() - 0.1);
+    EXPECT_LE(j["output_bbox"]["max"][k].get<double>(), j["input_bbox"]["max"][k].get<double>() + 0.1);
+  }
+  EXPECT_NE(slurp(path("o.pcd")).find("DATA ascii"), std::string::npos);
+}
+
+TEST_F(Cli, HelpAndVersion)
+{
+  RunResult r = run("--help");
+  EXPECT_EQ(r.code, 0);
+  for (const char* s : {"--terr", "--alpha", "--k", "--target-size", "--target-ratio", "--seed",
+                        "--threads", "--features", "--labels", "--stats", "Exit codes", "Examples"})
+    EXPECT_NE(r.out.find(s), std::string::npos) << s;
+  r = run("--version");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("pcl_ecs"), std::string::npos);
+}
+
+TEST_F(Cli, BadFilesAreRefusedWithExitCode3AndNoOutput)
+{
+  write("empty.pcd", "");
+  write("text.pcd", "hello, I am not a point cloud\n");
+  write("text.ply", "hello\n");
+  write("truncated.pcd", pcdHeader("x y z", "4 4 4", "F F F", 1000, "binary") + std::string(400, '\0'));
+  write("inconsistent.pcd", pcdHeader("x y z", "4 4", "F F F", 10, "ascii") + "1 2 3\n");
+  write("novertex.ply", "ply\nformat ascii 1.0\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n");
+  std::ostringstream nan;
+  nan << pcdHeader("x y z", "4 4 4", "F F F", 50, "ascii");
+  for (int i = 0; i < 50; ++i)
+    nan << "nan nan nan\n";
+  write("allnan.pcd", nan.str());
+  std::vector<std::array<float, 3>> few, same, line, mostly_nan;
+  for (int i = 0; i < 10; ++i)
+    few.push_back({float(i), float(i * i % 7), 0.5f * i});
+  for (int i = 0; i < 100; ++i)
+    same.push_back({1.f, 2.f, 3.f});
+  for (int i = 0; i < 100; ++i)
+    line.push_back({0.1f * i, 0.2f * i, 0.3f * i});
+  write("few.pcd", asciiPcd(few));
+  write("same.pcd", asciiPcd(same));
+  write("line.pcd", asciiPcd(line));
+  std::ostringstream mn;
+  mn << pcdHeader("x y z", "4 4 4", "F F F", 1000, "ascii");
+  for (int i = 0; i < 1000; ++i)
+    mn << (i % 100 == 0 ? std::to_string(i) + " 1 " + std::to_string(i % 3) : std::string("nan inf nan")) << "\n";
+  write("mostlynan.pcd", mn.str());
+  fs::create_directory(path("adir.pcd"));
+  const std::set<std::string> inputs = {"empty.pcd", "text.pcd", "text.ply", "truncated.pcd",
+                                        "inconsistent.pcd", "novertex.ply", "allnan.pcd", "few.pcd",
+                                        "same.pcd", "line.pcd", "mostlynan.pcd", "adir.pcd"};
+  const std::string out = " " + path("out.pcd");
+  expectRefused(path("missing.pcd") + out, 3, inputs, "no such file");
+  expectRefused(path("adir.pcd") + out, 3, inputs, "is a directory");
+  expectRefused(path("empty.pcd") + out, 3, inputs, "empty");
+  expectRefused(path("text.pcd") + out, 3, inputs, "not a PCD header");
+  expectRefused(path("text.ply") + out, 3, inputs, "not a PLY file");
+  expectRefused(path("truncated.pcd") + out, 3, inputs, "truncated");
+  expectRefused(path("inconsistent.pcd") + out, 3, inputs, "inconsistent");
+  expectRefused(path("novertex.ply") + out, 3, inputs, "no vertices");
+  expectRefused(path("allnan.pcd") + out, 3, inputs, "no finite points");
+  expectRefused(path("few.pcd") + out, 3, inputs, "K = 16");
+  expectRefused(path("same.pcd") + out, 3, inputs, "identical");
+  expectRefused(path("line.pcd") + out, 3, inputs, "line");
+  expectRefused(path("mostlynan.pcd") + out, 3, inputs, "only 10 finite points");
+  expectRefused(path("text.pcd") + " " + path("out.xyz"), 2, inputs, "must be .pcd or .ply");
+  if (::geteuid() != 0)
+  {
+    write("locked.pcd", asciiPcd(line));
+    fs::permissions(path("locked.pcd"), fs::perms::none);
+    auto with_locked = inputs;
+    with_locked.insert("locked.pcd");
+    expectRefused(path("locked.pcd") + out, 3, with_locked, "cannot be opened");
+  }
+}
+
+TEST_F(Cli, BadParametersAreUsageErrors)
+{
+  const std::string in = kShared + "/bunny.pcd";
+  const std::string out = " " + path("out.pcd");
+  const std::set<std::string> none;
+  expectRefused(in + out + " --terr -1", 2, none, "error_threshold");
+  expectRefused(in + out + " --terr 0", 2, none, "error_threshold");
+  expectRefused(in + out + " --terr nan", 2, none, "--terr");
+  expectRefused(in + out + " --terr abc", 2, none, "not a number");
+  expectRefused(in + out + " --alpha 0", 2, none, "feature_factor");
+  expectRefused(in + out + " --k 3", 2, none, "k_neighbors");
+  expectRefused(in + out + " --k 1e9", 2, none, "--k");
+  expectRefused(in + out + " --threads -2", 2, none, "--threads");
+  expectRefused(in + out + " --radius-cap 0", 2, none, "radius_cap_factor");
+  expectRefused(in + out + " --adapt-factor 0.5", 2, none, "adaptive_factor");
+  expectRefused(in + out + " --error-form fancy", 2, none, "--error-form");
+  expectRefused(in + out + " --target-ratio 1.5", 2, none, "--target-ratio");
+  expectRefused(in + out + " --target-size 0", 2, none, "--target-size");
+  expectRefused(in + out + " --bogus", 2, none, "unknown option");
+  expectRefused(in, 2, none, "expected INPUT and OUTPUT");
+  expectRefused(in + out + " --terr", 2, none, "needs a value");
+}
+
+TEST_F(Cli, OutputProblemsAreRefusedBeforeAnyWork)
+{
+  const std::string in = kShared + "/bunny.pcd";
+  std::set<std::string> none;
+  expectRefused(in + " " + path("no/such/dir/out.pcd"), 4, none, "does not exist");
+  write("afile", "x");
+  none.insert("afile");
+  expectRefused(in + " " + path("afile/out.pcd"), 4, none, "does not exist");
+  // Output equal to input: refused, and the input is untouched.
+  const std::string copy = path("copy.pcd");
+  fs::copy_file(in, copy);
+  none.insert("copy.pcd");
+  const auto before = slurp(copy);
+  expectRefused(copy + " " + copy, 2, none, "is the input file");
+  expectRefused(copy + " " + path("o.pcd") + " --stats " + copy, 2, none, ".json");
+  EXPECT_EQ(slurp(copy), before);
+}
+
+TEST_F(Cli, ReadsEveryEncoding)
+{
+  // The same cloud as PCD ascii / binary / binary_compressed, PLY ascii / binary and XYZ gives the
+  // same output.
+  const std::string in = kShared + "/bunny.pcd";
+  ASSERT_EQ(run(in + " " + path("ref.pcd") + " -q").code, 0);
+  const auto ref = load(path("ref.pcd"));
+  const auto bunny = load(in);
+  pcl::PointCloud<pcl::PointXYZ> pts;
+  pcl::fromPCLPointCloud2(bunny, pts);
+  std::ostringstream xyz;
+  xyz.precision(9);
+  for (const auto& p : pts)
+    xyz << p.x << " " << p.y << " " << p.z << "\n";
+  write("bunny.xyz", xyz.str());
+  std::vector<std::string> variants = {path("bunny.xyz")};
+  using pcl_ecs::io::Encoding;
+  for (auto [name, enc] : {std::pair{"ascii.pcd", Encoding::Ascii}, std::pair{"binary.pcd", Encoding::Binary},
+                           std::pair{"compressed.pcd", Encoding::BinaryCompressed},
+                           std::pair{"ascii.ply", Encoding::Ascii}, std::pair{"binary.ply", Encoding::Binary}})
+  {
+    pcl_ecs::io::writeCloud(path(name), pcl_ecs::io::formatFromPath(name), bunny, enc);
+    variants.push_back(path(name));
+  }
+  for (const auto& v : variants)
+  {
+    const RunResult r = run(v + " " + path("v.pcd") + " -q");
+    ASSERT_EQ(r.code, 0) << v << ": " << r.err;
+    const auto got = load(path("v.pcd"));
+    EXPECT_EQ(got.width, ref.width) << v;
+    EXPECT_EQ(got.data, ref.data) << v;
+  }
+}
