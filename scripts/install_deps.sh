@@ -5,7 +5,8 @@ pkgs=(
   build-essential cmake ninja-build pkg-config git
   libpcl-dev libeigen3-dev libflann-dev libboost-dev
   libopenmpi-dev            # Debian's VTK config (pulled in by PCL) needs MPI's C target
-  libgtest-dev nlohmann-json3-dev
+  libnanoflann-dev          # the fast K-d tree behind our PCL search back end
+  libgtest-dev nlohmann-json3-dev libcgal-dev  # CGAL: the benchmark peers (and Cocone)
   clang libclang-rt-14-dev  # libFuzzer for the loader fuzz target
   python3
 )

@@ -13,7 +13,7 @@
 #include <sstream>
 
 #include <Eigen/Eigenvalues>
-#include <pcl/search/kdtree.h>
+#include <pcl_ecs/search/nanoflann_search.h>
 
 namespace pcl_ecs
 {
@@ -106,7 +106,7 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
   // The one K-neighbourhood query (eq. 1, 2, 3, 7-12 all read it).
   auto t = Clock::now();
   report("neighbours", 0.0);
-  pcl::search::KdTree<pcl::PointXYZ> tree(false);
+  NanoflannSearch tree;
   tree.setInputCloud(cloud_ptr);
   NeighborhoodTable table;
   computeNeighborhoods(cloud, tree, k, threads, table);
@@ -157,7 +157,7 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
   for (std::size_t i = 0; i < cloud.size(); ++i)
     if (!out.is_feature[i])
       nonfeature_indices->push_back(static_cast<int>(i));
-  pcl::search::KdTree<pcl::PointXYZ> nonfeature_tree(false);
+  NanoflannSearch nonfeature_tree;
   nonfeature_tree.setInputCloud(cloud_ptr, nonfeature_indices);
   computeLocalDensity(cloud, table, out.is_feature, nonfeature_tree, threads, out.density);
   s.mean_spacing = meanOverNonFeatures(out.density, out.is_feature);

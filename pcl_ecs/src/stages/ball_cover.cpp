@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 
 namespace pcl_ecs
 {
@@ -52,116 +54,213 @@ private:
 };
 }  // namespace
 
+namespace
+{
+/// Scratch space of one worker, reused from ball to ball.
+struct Scratch
+{
+  std::vector<BallCandidate> sorted;
+  std::vector<Eigen::Vector3d> offsets;
+  std::vector<int> members;
+  std::vector<std::uint8_t> inside;
+  double typical_radius = 0.0;  // first query guess; adapts to the balls of this worker's cell
+};
+
+/// Steps 4-6 for the centre c: solve the ball, then claim (owner = ball_key) the points it
+/// covers that nobody owns yet. Returns the ball.
+CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_threshold,
+                   double cap, int c, std::int64_t ball_key, std::vector<std::int64_t>& owner,
+                   Scratch& w)
+{
+  const std::size_t cs = static_cast<std::size_t>(c);
+  CoverBall ball;
+  ball.centre = c;
+  ball.tolerance = adaptTolerance(error_threshold, params.adaptive, params.adaptive_factor,
+                                  in.curvature[cs], in.mean_abs_curvature, in.density[cs],
+                                  in.mean_density);
+  const Eigen::Vector3d centre = in.cloud[c].getVector3fMap().cast<double>();
+
+  // Steps 4-5: the radius and the optimised point. The floor is dens_c (eq. 5), the cap a
+  // multiple of the mean neighbourhood radius.
+  const QuadricSamples samples{in.cloud, in.normals, in.weights};
+  const double guess = std::max(w.typical_radius, in.density[cs]);
+  RadiusQuerySource source(in.nonfeature_search, in.cloud[c], 2.0 * cap, 2.0 * 1.25 * guess);
+  w.sorted.clear();
+  const RadiusSolution sol = solveRadius(samples, centre, in.density[cs], cap, guess,
+                                         ball.tolerance, in.bbox_diagonal, params.error_form,
+                                         source, w.sorted);
+  ball.evaluations = static_cast<std::size_t>(sol.evaluations);
+  ball.radius = sol.radius;
+  ball.error = sol.error;
+  if (sol.radius > 0.0)
+    w.typical_radius = 0.9 * w.typical_radius + 0.1 * sol.radius;
+
+  ball.used_centre = !(sol.x_min.norm() < sol.radius);
+  const Eigen::Vector3d v_offset = ball.used_centre ? Eigen::Vector3d::Zero() : sol.x_min;
+  ball.representative = centre + v_offset;
+
+  // Members: the non-feature points within r (c among them, at distance 0).
+  w.offsets.clear();
+  w.members.clear();
+  for (const BallCandidate& cand : w.sorted)
+  {
+    if (cand.distance > sol.radius)
+      break;
+    w.members.push_back(cand.index);
+    w.offsets.push_back(in.cloud[cand.index].getVector3fMap().cast<double>() - centre);
+  }
+  if (std::find(w.members.begin(), w.members.end(), c) == w.members.end())
+  {
+    w.members.push_back(c);
+    w.offsets.push_back(Eigen::Vector3d::Zero());
+  }
+
+  // Attributes: from the member nearest to v; normal averaged over the ball with c's sign.
+  const Eigen::Vector3d nc = in.normals[cs].cast<double>();
+  Eigen::Vector3d normal_sum = Eigen::Vector3d::Zero();
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t m = 0; m < w.members.size(); ++m)
+  {
+    const double d = (w.offsets[m] - v_offset).squaredNorm();
+    if (d < best || (d == best && w.members[m] < ball.attribute_source))
+    {
+      best = d;
+      ball.attribute_source = w.members[m];
+    }
+    Eigen::Vector3d nm = in.normals[static_cast<std::size_t>(w.members[m])].cast<double>();
+    if (nm.dot(nc) < 0.0)
+      nm = -nm;
+    const double weight = sol.radius > 0.0 ? kernelG(w.offsets[m].norm(), sol.radius) : 1.0;
+    normal_sum += weight * nm;
+  }
+  const double len = normal_sum.norm();
+  ball.normal = (len > 0.0 ? Eigen::Vector3d(normal_sum / len) : nc).cast<float>();
+
+  // Step 6: cover c and the members projected strictly inside the hull.
+  auto claim = [&](int idx) {
+    std::int64_t& o = owner[static_cast<std::size_t>(idx)];
+    if (o < 0)
+    {
+      o = ball_key;
+      ++ball.replaced;
+    }
+  };
+  claim(c);
+  if (w.members.size() >= 3)
+  {
+    hullCoverage(nc, w.offsets, w.inside);
+    for (std::size_t m = 0; m < w.members.size(); ++m)
+      if (w.inside[m])
+        claim(w.members[m]);
+  }
+  return ball;
+}
+}  // namespace
+
 void coverWithBalls(const CoverInput& in, const Parameters& params, double error_threshold,
                     CoverOutput& out)
 {
   const std::size_t n = in.cloud.size();
   out = CoverOutput{};
   out.owner.assign(n, -1);
+  const double cap = std::max(params.radius_cap_factor * in.neighborhood_radius, 0.0);
 
+  // Seeded order of the centres (step 3).
   std::vector<int> order;
   order.reserve(n);
   for (std::size_t i = 0; i < n; ++i)
     if (!in.is_feature[i])
       order.push_back(static_cast<int>(i));
   seededShuffle(order, params.seed);
+  if (order.empty())
+    return;
 
-  const double cap = std::max(params.radius_cap_factor * in.neighborhood_radius, 0.0);
-  const QuadricSamples samples{in.cloud, in.normals, in.weights};
-  std::vector<BallCandidate> sorted;
-  std::vector<Eigen::Vector3d> offsets;
-  std::vector<int> members;
-  std::vector<std::uint8_t> inside;
-  double typical_radius = in.neighborhood_radius;  // first query guess; adapts to recent balls
-
-  for (const int c : order)
+  // Cells of side s > 2·cap, coloured by the parity of their grid coordinates: two cells of one
+  // colour are at least s apart, so balls centred in them (radius <= cap) cover disjoint sets and
+  // can be made concurrently. The eight colours run one after another; inside a cell the centres
+  // keep the seeded order. The result depends on the cells, never on the thread count.
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  for (const int i : order)
+    lo = lo.cwiseMin(in.cloud[i].getVector3fMap().cast<double>());
+  const double side = std::max(2.0 * cap * 1.001, 1e-12);
+  struct Entry
   {
-    if (out.owner[static_cast<std::size_t>(c)] >= 0)
-      continue;
-    const std::size_t cs = static_cast<std::size_t>(c);
-    const int ball_id = static_cast<int>(out.balls.size());
-    CoverBall ball;
-    ball.centre = c;
-    ball.tolerance = adaptTolerance(error_threshold, params.adaptive, params.adaptive_factor,
-                                    in.curvature[cs], in.mean_abs_curvature, in.density[cs],
-                                    in.mean_density);
-    const Eigen::Vector3d centre = in.cloud[c].getVector3fMap().cast<double>();
-
-    // Steps 4-5: the radius and the optimised point. The floor is dens_c (eq. 5), the cap a
-    // multiple of the mean spacing.
-    const double guess = std::max(typical_radius, in.density[cs]);
-    RadiusQuerySource source(in.nonfeature_search, in.cloud[c], 2.0 * cap, 2.0 * 1.25 * guess);
-    sorted.clear();
-    const RadiusSolution sol = solveRadius(samples, centre, in.density[cs], cap, guess,
-                                           ball.tolerance, in.bbox_diagonal, params.error_form,
-                                           source, sorted);
-    out.radius_evaluations += static_cast<std::size_t>(sol.evaluations);
-    ball.radius = sol.radius;
-    ball.error = sol.error;
-    if (sol.radius > 0.0)
-      typical_radius = 0.9 * typical_radius + 0.1 * sol.radius;
-
-    ball.used_centre = !(sol.x_min.norm() < sol.radius);
-    const Eigen::Vector3d v_offset = ball.used_centre ? Eigen::Vector3d::Zero() : sol.x_min;
-    ball.representative = centre + v_offset;
-
-    // Members: the non-feature points within r (c among them, at distance 0).
-    offsets.clear();
-    members.clear();
-    for (const BallCandidate& cand : sorted)
-    {
-      if (cand.distance > sol.radius)
-        break;
-      members.push_back(cand.index);
-      offsets.push_back(in.cloud[cand.index].getVector3fMap().cast<double>() - centre);
-    }
-    if (members.empty() || std::find(members.begin(), members.end(), c) == members.end())
-    {
-      members.push_back(c);
-      offsets.push_back(Eigen::Vector3d::Zero());
-    }
-
-    // Attributes: from the member nearest to v; normal averaged over the ball with c's sign.
-    const Eigen::Vector3d nc = in.normals[cs].cast<double>();
-    Eigen::Vector3d normal_sum = Eigen::Vector3d::Zero();
-    double best = std::numeric_limits<double>::infinity();
-    for (std::size_t m = 0; m < members.size(); ++m)
-    {
-      const double d = (offsets[m] - v_offset).squaredNorm();
-      if (d < best || (d == best && members[m] < ball.attribute_source))
-      {
-        best = d;
-        ball.attribute_source = members[m];
-      }
-      Eigen::Vector3d nm = in.normals[static_cast<std::size_t>(members[m])].cast<double>();
-      if (nm.dot(nc) < 0.0)
-        nm = -nm;
-      const double w = sol.radius > 0.0 ? kernelG(offsets[m].norm(), sol.radius) : 1.0;
-      normal_sum += w * nm;
-    }
-    const double len = normal_sum.norm();
-    ball.normal = (len > 0.0 ? Eigen::Vector3d(normal_sum / len) : nc).cast<float>();
-
-    // Step 6: cover c and the members projected strictly inside the hull.
-    auto claim = [&](int idx) {
-      int& owner = out.owner[static_cast<std::size_t>(idx)];
-      if (owner < 0)
-      {
-        owner = ball_id;
-        ++ball.replaced;
-      }
-    };
-    claim(c);
-    if (members.size() >= 3)
-    {
-      hullCoverage(nc, offsets, inside);
-      for (std::size_t m = 0; m < members.size(); ++m)
-        if (inside[m])
-          claim(members[m]);
-    }
-    out.max_error = std::max(out.max_error, ball.error);
-    out.balls.push_back(ball);
+    std::uint64_t cell;  // colour in the top 3 bits, then the cell coordinates
+    std::uint32_t rank;  // position in the seeded order
+    int point;
+  };
+  std::vector<Entry> entries(order.size());
+  for (std::size_t r = 0; r < order.size(); ++r)
+  {
+    const Eigen::Vector3d q = (in.cloud[order[r]].getVector3fMap().cast<double>() - lo) / side;
+    const std::uint64_t ix = static_cast<std::uint64_t>(std::min(q.x(), 1048575.0));
+    const std::uint64_t iy = static_cast<std::uint64_t>(std::min(q.y(), 1048575.0));
+    const std::uint64_t iz = static_cast<std::uint64_t>(std::min(q.z(), 1048575.0));
+    const std::uint64_t colour = (ix & 1u) | ((iy & 1u) << 1) | ((iz & 1u) << 2);
+    entries[r] = {(colour << 60) | (ix << 40) | (iy << 20) | iz, static_cast<std::uint32_t>(r), order[r]};
   }
+  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+    return a.cell < b.cell || (a.cell == b.cell && a.rank < b.rank);
+  });
+  // Cell boundaries, and where each colour starts.
+  std::vector<std::size_t> cell_begin;
+  for (std::size_t e = 0; e < entries.size(); ++e)
+    if (e == 0 || entries[e].cell != entries[e - 1].cell)
+      cell_begin.push_back(e);
+  const std::size_t cells = cell_begin.size();
+  cell_begin.push_back(entries.size());
+  // Cells are sorted colour-major: colour_begin[col] is the first cell of colour >= col.
+  std::vector<std::size_t> colour_begin(9, cells);
+  std::size_t next_colour = 0;
+  for (std::size_t k = 0; k < cells; ++k)
+    while (next_colour <= (entries[cell_begin[k]].cell >> 60))
+      colour_begin[next_colour++] = k;
+
+  // Ball keys while running: cell index << 32 | index in the cell; renumbered at the end.
+  std::vector<std::vector<CoverBall>> cell_balls(cells);
+  std::vector<std::int64_t> owner(n, -1);
+  const int threads = resolveThreads(params.threads);
+  for (int col = 0; col < 8; ++col)
+  {
+    const std::ptrdiff_t first = static_cast<std::ptrdiff_t>(colour_begin[static_cast<std::size_t>(col)]);
+    const std::ptrdiff_t last = static_cast<std::ptrdiff_t>(colour_begin[static_cast<std::size_t>(col) + 1]);
+#pragma omp parallel num_threads(threads)
+    {
+      Scratch w;
+#pragma omp for schedule(dynamic, 1)
+      for (std::ptrdiff_t k = first; k < last; ++k)
+      {
+        const std::size_t cell = static_cast<std::size_t>(k);
+        w.typical_radius = in.neighborhood_radius;
+        std::vector<CoverBall>& balls = cell_balls[cell];
+        for (std::size_t e = cell_begin[cell]; e < cell_begin[cell + 1]; ++e)
+        {
+          const int c = entries[e].point;
+          if (owner[static_cast<std::size_t>(c)] >= 0)
+            continue;
+          const std::int64_t key = (static_cast<std::int64_t>(cell) << 32) | static_cast<std::int64_t>(balls.size());
+          balls.push_back(makeBall(in, params, error_threshold, cap, c, key, owner, w));
+        }
+      }
+    }
+  }
+
+  // Canonical ball numbering: by cell (colour-major), then by order within the cell.
+  std::vector<std::size_t> first_id(cells + 1, 0);
+  for (std::size_t k = 0; k < cells; ++k)
+    first_id[k + 1] = first_id[k] + cell_balls[k].size();
+  out.balls.reserve(first_id[cells]);
+  for (std::size_t k = 0; k < cells; ++k)
+    for (CoverBall& b : cell_balls[k])
+    {
+      out.max_error = std::max(out.max_error, b.error);
+      out.radius_evaluations += b.evaluations;
+      out.balls.push_back(std::move(b));
+    }
+  for (std::size_t i = 0; i < n; ++i)
+    if (owner[i] >= 0)
+      out.owner[i] = static_cast<int>(first_id[static_cast<std::size_t>(owner[i] >> 32)] +
+                                      static_cast<std::size_t>(owner[i] & 0xFFFFFFFF));
 }
 
 }  // namespace pcl_ecs

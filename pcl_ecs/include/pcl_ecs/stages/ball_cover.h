@@ -7,7 +7,12 @@
 //   7. until no point is uncovered.
 // The representative is x_min when |x_min - c| < r, otherwise c (a sharp region that slipped past
 // the feature test). One radius query per ball (re-issued larger only if the bracket outgrows it)
-// serves every bisection step and the coverage. Sequential by nature; deterministic.
+// serves every bisection step and the coverage.
+//
+// Parallel and deterministic: the centres are bucketed into cells of side > 2·cap coloured by the
+// parity of their grid coordinates (8 colours); cells of one colour are processed concurrently
+// (their balls cannot touch), colours one after another, centres in seeded order within a cell.
+// The output depends on the seed and the cells, never on the thread count.
 #pragma once
 
 #include <pcl_ecs/parameters.h>
@@ -52,6 +57,7 @@ struct CoverBall
   int attribute_source = -1;  ///< member nearest to the representative (a real input point)
   Eigen::Vector3f normal = Eigen::Vector3f::UnitZ();  ///< averaged over the ball, c's sign
   std::size_t replaced = 0;   ///< points whose owner is this ball
+  std::size_t evaluations = 0;  ///< E(r) computed by the radius solve
 };
 
 /** \brief The cover. */
@@ -64,7 +70,7 @@ struct CoverOutput
 };
 
 /** \brief Run steps 2-7 with tolerance `error_threshold` and the other settings of `params`
- * (error_form, adaptive, adaptive_factor, radius_cap_factor, seed). */
+ * (error_form, adaptive, adaptive_factor, radius_cap_factor, seed, threads). */
 void coverWithBalls(const CoverInput& in, const Parameters& params, double error_threshold,
                     CoverOutput& out);
 
