@@ -15,8 +15,14 @@ double paraboloidMeanCurvature(const Eigen::Vector3d& centre, const Eigen::Vecto
   Eigen::Vector3d u, v;
   tangentFrame(normal, u, v);
   const int cols = fit == ParaboloidFit::Literal ? 3 : 5;
-  Eigen::MatrixXd A(points.size(), cols);  // eq. 8 (with x, y columns for the tilted fit)
-  Eigen::VectorXd z(points.size());        // eq. 10
+  // Fixed maximum sizes keep the per-point fit off the heap (K <= 200, so at most 201 rows).
+  using Rows = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 256, 5>;
+  using Col = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 256, 1>;
+  if (points.size() > 256)
+    return paraboloidMeanCurvature(centre, normal,
+                                   std::vector<Eigen::Vector3d>(points.begin(), points.begin() + 256), fit);
+  Rows A(static_cast<Eigen::Index>(points.size()), cols);  // eq. 8 (+ x, y for the tilted fit)
+  Col z(static_cast<Eigen::Index>(points.size()));         // eq. 10
   Eigen::Index rows = 0;
   double scale = 0.0;
   for (const auto& p : points)
@@ -39,10 +45,11 @@ double paraboloidMeanCurvature(const Eigen::Vector3d& centre, const Eigen::Vecto
   }
   if (rows < cols)
     return 0.0;
-  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A.topRows(rows));
+  const Rows Ar = A.topRows(rows);
+  Eigen::ColPivHouseholderQR<Rows> qr(Ar);
   if (qr.rank() < cols)
     return 0.0;
-  const Eigen::VectorXd coef = qr.solve(z.head(rows));  // eq. 9
+  const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 5, 1> coef = qr.solve(Col(z.head(rows)));  // eq. 9
   const double a = coef(0), b = coef(1), c = coef(2);
   if (cols == 3)
     return (a + c) / scale;  // eq. 11

@@ -26,7 +26,8 @@ enum class ParaboloidFit
 
 /** \brief Fit eq. 7 to `points` (the centre among them or not) around `centre` with normal
  * `normal` and return H = a + c (eq. 11), in 1/units. For a sphere of radius ρ sampled densely,
- * |H| -> 1/ρ. Returns 0 when the fit is underdetermined (fewer distinct neighbours than coefficients). */
+ * |H| -> 1/ρ. Returns 0 when the fit is underdetermined (fewer distinct neighbours than
+ * coefficients). At most the first 256 points are used (the method passes K <= 200). */
 double paraboloidMeanCurvature(const Eigen::Vector3d& centre, const Eigen::Vector3d& normal,
                                const std::vector<Eigen::Vector3d>& points,
                                ParaboloidFit fit = ParaboloidFit::Tilted);
