@@ -26,6 +26,14 @@ Cloud::Ptr loadShared(const std::string& name)
   return c;
 }
 
+Cloud::Ptr scaledCopy(const Cloud& c, float factor)
+{
+  auto out = std::make_shared<Cloud>(c);
+  for (auto& p : *out)
+    p.getVector3fMap() *= factor;
+  return out;
+}
+
 Cloud run(const Cloud::Ptr& in, Filter& f)
 {
   Cloud out;
@@ -113,9 +121,7 @@ TEST(Filter, CubeEdgesAreFeatures)
 TEST(Filter, NormalizedErrorIsScaleFreeExactly)
 {
   auto cloud = loadShared("bunny.pcd");
-  auto scaled = std::make_shared<Cloud>(*cloud);
-  for (auto& p : *scaled)
-    p.getVector3fMap() *= 1024.0f;
+  auto scaled = scaledCopy(*cloud, 1024.0f);
   Filter a, b;
   const Cloud oa = run(cloud, a), ob = run(scaled, b);
   ASSERT_GT(oa.size(), 100u);
@@ -130,16 +136,12 @@ TEST(Filter, NormalizedErrorIsScaleFreeExactly)
 TEST(Filter, NormalizedErrorIsScaleFreeBy1000)
 {
   auto cloud = loadShared("bunny.pcd");
-  auto scaled = std::make_shared<Cloud>(*cloud);
-  for (auto& p : *scaled)
-    p.getVector3fMap() *= 1000.0f;
+  auto scaled = scaledCopy(*cloud, 1000.0f);
   Filter a, b;
   const Cloud oa = run(cloud, a), ob = run(scaled, b);
   ASSERT_GT(oa.size(), 100u);
   EXPECT_NEAR(static_cast<double>(ob.size()), static_cast<double>(oa.size()), 0.005 * oa.size());
-  auto ob_down = std::make_shared<Cloud>(ob);
-  for (auto& p : *ob_down)
-    p.getVector3fMap() /= 1000.0f;
+  auto ob_down = scaledCopy(ob, 1.0f / 1000.0f);
   pcl::search::KdTree<pcl::PointXYZ> tree;
   tree.setInputCloud(ob_down);
   const double L = a.getResult().summary.bbox_diagonal;
