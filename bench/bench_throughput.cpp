@@ -10,6 +10,9 @@
 #include <pcl_ecs/io/cloud_io.h>
 
 #include <chrono>
+#include <stdexcept>
+#include <filesystem>
+#include <sstream>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -32,8 +35,8 @@ namespace
 using Clock = std::chrono::steady_clock;
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 
-/// Resident and peak resident memory (MiB) from /proc/self/status.
-double procStatusMiB(const char* key)
+/// A field of /proc/self/status, in MiB.
+double statusMiB(const char* key)
 {
   std::ifstream in("/proc/self/status");
   std::string line;
@@ -43,27 +46,44 @@ double procStatusMiB(const char* key)
   return -1.0;
 }
 
-/// Reset the kernel's peak-RSS mark to the current RSS (Linux >= 4.0).
-void resetPeak()
-{
-  std::ofstream("/proc/self/clear_refs") << "5";
-}
-
 struct Measure
 {
   double seconds = 0, peak_extra_mib = 0;
   std::size_t size = 0;
 };
 
-Measure measure(const std::function<std::size_t()>& run)
+/// In a fresh child process (see runChild): reset the peak-RSS mark, run, and report the time and
+/// the peak resident memory above what the loaded input already used.
+Measure measureHere(const std::function<std::size_t()>& run)
 {
-  resetPeak();
-  const double base = procStatusMiB("VmRSS:");
+  std::ofstream("/proc/self/clear_refs") << "5";  // VmHWM := VmRSS (Linux >= 4.0)
+  const double base = statusMiB("VmRSS:");
   const auto t0 = Clock::now();
   Measure m;
   m.size = run();
   m.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-  m.peak_extra_mib = procStatusMiB("VmHWM:") - base;
+  m.peak_extra_mib = statusMiB("VmHWM:") - base;
+  return m;
+}
+
+/// Run this program again as `--child METHOD PARAM` with the same input flags, so that each
+/// method's memory is measured in a process of its own; parse the line it prints.
+Measure runChild(const std::vector<std::string>& input_args, const std::string& method, double param)
+{
+  std::ostringstream cmd;
+  cmd << std::filesystem::read_symlink("/proc/self/exe").string();  // popen runs a shell
+  for (const auto& a : input_args)
+    cmd << " '" << a << "'";
+  cmd.precision(17);
+  cmd << " --child " << method << " " << param;
+  FILE* pipe = ::popen(cmd.str().c_str(), "r");
+  if (!pipe)
+    throw std::runtime_error("cannot start " + cmd.str());
+  Measure m;
+  const int got = std::fscanf(pipe, "%zu %lf %lf", &m.size, &m.seconds, &m.peak_extra_mib);
+  const int status = ::pclose(pipe);
+  if (got != 3 || status != 0)
+    throw std::runtime_error("the child run failed: " + cmd.str());
   return m;
 }
 
@@ -99,16 +119,29 @@ int main(int argc, char** argv)
   std::size_t points = 1000000;
   double keep = 0.10;
   int threads = 0;
+  std::string child_method;
+  double child_param = 0.0;
+  std::vector<std::string> input_args;  // what a child needs to rebuild the same input
   for (int i = 1; i < argc; ++i)
   {
     const std::string a = argv[i];
     auto next = [&]() { return std::string(i + 1 < argc ? argv[++i] : ""); };
-    if (a == "--mesh") mesh = next();
-    else if (a == "--cloud") cloud_path = next();
-    else if (a == "--points") points = std::stoull(next());
+    auto keep_arg = [&](const std::string& v) {
+      input_args.push_back(a);
+      input_args.push_back(v);
+      return v;
+    };
+    if (a == "--mesh") mesh = keep_arg(next());
+    else if (a == "--cloud") cloud_path = keep_arg(next());
+    else if (a == "--points") points = std::stoull(keep_arg(next()));
     else if (a == "--keep") keep = std::stod(next());
-    else if (a == "--threads") threads = std::stoi(next());
+    else if (a == "--threads") threads = std::stoi(keep_arg(next()));
     else if (a == "--json") json_path = next();
+    else if (a == "--child")
+    {
+      child_method = next();
+      child_param = std::stod(next());
+    }
     else
     {
       std::cerr << "usage: bench_throughput (--mesh M.ply [--points N] | --cloud C.pcd) [--keep R] [--threads T] [--json F]\n";
@@ -131,41 +164,75 @@ int main(int argc, char** argv)
     source = cloud_path;
   }
   const std::size_t n = cloud->size();
+
+  // The three methods, each run with its own parameter (T_err, leaf size, cluster size).
+  Cloud out;
+  pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> ecs;
+  ecs.setNumberOfThreads(threads);
+  ecs.setInputCloud(cloud);
+  auto run_ecs = [&](double terr) {
+    ecs.setTargetSize(0);
+    ecs.setErrorThreshold(terr);
+    ecs.filter(out);
+    return out.size();
+  };
+  pcl::VoxelGrid<pcl::PointXYZ> vg;
+  vg.setInputCloud(cloud);
+  auto run_vg = [&](double leaf) {
+    vg.setLeafSize(static_cast<float>(leaf), static_cast<float>(leaf), static_cast<float>(leaf));
+    vg.filter(out);
+    return out.size();
+  };
+#ifdef PCL_ECS_BENCH_WITH_CGAL
+  using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+  std::vector<K::Point_3> base;
+  base.reserve(n);
+  for (const auto& p : *cloud)
+    base.emplace_back(p.x, p.y, p.z);
+  std::vector<K::Point_3> work;
+  auto run_hierarchy = [&](double size) {
+    work = base;
+    work.erase(CGAL::hierarchy_simplify_point_set(
+                   work, CGAL::parameters::size(static_cast<unsigned>(std::lround(size)))),
+               work.end());
+    return work.size();
+  };
+#endif
+
+  if (!child_method.empty())
+  {
+    std::function<std::size_t()> run;
+    if (child_method == "pcl_ecs")
+      run = [&] { return run_ecs(child_param); };
+    else if (child_method == "voxel_grid")
+      run = [&] { return run_vg(child_param); };
+#ifdef PCL_ECS_BENCH_WITH_CGAL
+    else if (child_method == "cgal_hierarchy")
+      run = [&] { return run_hierarchy(child_param); };
+#endif
+    else
+      return 2;
+    const Measure m = measureHere(run);
+    std::printf("%zu %.9f %.3f\n", m.size, m.seconds, m.peak_extra_mib);
+    return 0;
+  }
+
   const std::size_t target = static_cast<std::size_t>(std::llround(keep * n));
   std::printf("input: %s (%zu points), target %zu (%.0f%%), threads %d\n", source.c_str(), n,
               target, 100 * keep, pcl_ecs::resolveThreads(threads));
 
-  // pcl_ecs: calibrate T_err for the target (untimed), then time one run at that T_err.
-  pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> ecs;
-  ecs.setNumberOfThreads(threads);
-  ecs.setInputCloud(cloud);
+  // Calibrate each method's parameter for the target size (untimed), then time one run of each
+  // in a process of its own.
   ecs.setTargetSize(target);
-  Cloud out;
   ecs.filter(out);
   const double terr = ecs.getResult().summary.error_threshold;
-  ecs.setTargetSize(0);
-  ecs.setErrorThreshold(terr);
-  const Measure m_ecs = measure([&] {
-    ecs.filter(out);
-    return out.size();
-  });
+  const double L = ecs.getResult().summary.bbox_diagonal;
+  const Measure m_ecs = runChild(input_args, "pcl_ecs", terr);
+  run_ecs(terr);  // for the stage timings of the same run, in this process
   const pcl_ecs::Summary s = ecs.getResult().summary;
   const pcl_ecs::StageTimings& t = s.timings;
-
-  // PCL VoxelGrid at the same size.
-  pcl::VoxelGrid<pcl::PointXYZ> vg;
-  vg.setInputCloud(cloud);
-  const double L = s.bbox_diagonal;
-  const double leaf = searchParameter(L * 1e-5, L * 0.5, target, [&](double l) {
-    vg.setLeafSize(static_cast<float>(l), static_cast<float>(l), static_cast<float>(l));
-    vg.filter(out);
-    return out.size();
-  });
-  vg.setLeafSize(static_cast<float>(leaf), static_cast<float>(leaf), static_cast<float>(leaf));
-  const Measure m_vg = measure([&] {
-    vg.filter(out);
-    return out.size();
-  });
+  const double leaf = searchParameter(L * 1e-5, L * 0.5, target, run_vg);
+  const Measure m_vg = runChild(input_args, "voxel_grid", leaf);
 
   nlohmann::json j;
   j["input"] = source;
@@ -182,28 +249,16 @@ int main(int argc, char** argv)
                      {"peak_extra_mib", m_vg.peak_extra_mib}};
   std::printf("%-28s %9s %9s %12s %10s\n", "method", "size", "time s", "points/s", "peak MiB");
   std::printf("%-28s %9zu %9.3f %12.0f %10.1f\n", "pcl_ecs", m_ecs.size, m_ecs.seconds, n / m_ecs.seconds, m_ecs.peak_extra_mib);
-  std::printf("  stages: nn %.3f normals %.3f weights %.3f features %.3f density %.3f curvature %.3f cover %.3f output %.3f\n",
+  std::printf("  stages (s): neighbours %.3f normals %.3f weights %.3f features %.3f density %.3f curvature %.3f cover %.3f output %.3f\n",
               t.neighbors, t.normals, t.weights, t.features, t.density, t.curvature, t.cover, t.output);
   std::printf("%-28s %9zu %9.3f %12.0f %10.1f  (pcl_ecs time / this: %.1fx)\n", "pcl::VoxelGrid", m_vg.size,
               m_vg.seconds, n / m_vg.seconds, m_vg.peak_extra_mib, m_ecs.seconds / m_vg.seconds);
 
 #ifdef PCL_ECS_BENCH_WITH_CGAL
-  using K = CGAL::Exact_predicates_inexact_constructions_kernel;
-  std::vector<K::Point_3> base;
-  base.reserve(n);
-  for (const auto& p : *cloud)
-    base.emplace_back(p.x, p.y, p.z);
-  std::vector<K::Point_3> work;
-  auto hierarchy = [&](double size) {
-    work = base;
-    work.erase(CGAL::hierarchy_simplify_point_set(work, CGAL::parameters::size(static_cast<unsigned>(std::lround(size)))),
-               work.end());
-    return work.size();
-  };
-  const double csize = std::round(searchParameter(1.0, 1000.0, target, hierarchy, 20));
+  const double csize = std::round(searchParameter(1.0, 1000.0, target, run_hierarchy, 20));
   work.clear();
   work.shrink_to_fit();
-  const Measure m_h = measure([&] { return hierarchy(csize); });
+  const Measure m_h = runChild(input_args, "cgal_hierarchy", csize);
   j["cgal_hierarchy"] = {{"size_param", csize}, {"size", m_h.size}, {"seconds", m_h.seconds},
                          {"peak_extra_mib", m_h.peak_extra_mib}};
   std::printf("%-28s %9zu %9.3f %12.0f %10.1f  (pcl_ecs time / this: %.1fx)\n", "CGAL hierarchy_simplify", m_h.size,

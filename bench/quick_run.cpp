@@ -29,10 +29,10 @@ int main(int argc, char** argv)
   const auto& s = f.getResult().summary;
   const auto& t = s.timings;
   std::printf("in %zu out %zu (%.2f%%) features %zu balls %zu fallbacks %zu T %.3g maxE %.3g "
-              "spacing %.4g L %.4g iters %d\n",
+              "spacing %.4g L %.4g iters %d evals/ball %.2f\n",
               s.finite_points, out.size(), 100.0 * out.size() / s.finite_points, s.feature_points,
               s.balls, s.centre_fallbacks, s.error_threshold, s.max_error, s.mean_spacing,
-              s.bbox_diagonal, s.target_iterations);
+              s.bbox_diagonal, s.target_iterations, double(s.radius_evaluations) / double(std::max<std::size_t>(1, s.balls)));
   std::printf("time: prep %.3f nn %.3f normals %.3f w %.3f feat %.3f dens %.3f curv %.3f cover %.3f "
               "out %.3f total %.3f  => %.0f pts/s\n",
               t.preparation, t.neighbors, t.normals, t.weights, t.features, t.density, t.curvature,

@@ -251,6 +251,7 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
   s.balls = out.cover.balls.size();
   s.output_points = s.feature_points + s.balls;
   s.max_error = out.cover.max_error;
+  s.radius_evaluations = out.cover.radius_evaluations;
   for (const auto& b : out.cover.balls)
     s.centre_fallbacks += b.used_centre ? 1 : 0;
   return Status::Ok;

@@ -64,6 +64,7 @@ struct Summary
   double error_threshold = 0;        ///< T_err used (the one found, in target-size mode)
   double max_error = 0;              ///< largest E(r) over all balls
   int target_iterations = 0;         ///< cover runs made by the target-size search
+  std::size_t radius_evaluations = 0;  ///< E(r) computed by the (last) cover run
   StageTimings timings;
 };
 

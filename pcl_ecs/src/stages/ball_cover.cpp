@@ -26,17 +26,16 @@ public:
   {
   }
 
-  bool ensure(double needed, std::vector<BallCandidate>& sorted) override
+  bool ensure(double needed, std::vector<BallCandidate>& candidates) override
   {
     if (needed <= queried_)
       return false;
     double radius = std::min(max_radius_, std::max(needed, next_radius_));
     search_.radiusSearch(centre_, radius, found_, d2_);
-    sorted.clear();
-    sorted.reserve(found_.size());
+    candidates.clear();
+    candidates.reserve(found_.size());
     for (std::size_t i = 0; i < found_.size(); ++i)
-      sorted.push_back({std::sqrt(static_cast<double>(d2_[i])), found_[i]});
-    std::sort(sorted.begin(), sorted.end());
+      candidates.push_back({std::sqrt(static_cast<double>(d2_[i])), found_[i]});
     // Anything at or below the radius asked for is complete; tell the solver so.
     queried_ = radius >= max_radius_ ? std::numeric_limits<double>::infinity() : radius;
     next_radius_ = 1.5 * radius;
@@ -59,7 +58,7 @@ namespace
 /// Scratch space of one worker, reused from ball to ball.
 struct Scratch
 {
-  std::vector<BallCandidate> sorted;
+  std::vector<BallCandidate> candidates;
   std::vector<Eigen::Vector3d> offsets;
   std::vector<int> members;
   std::vector<std::uint8_t> inside;
@@ -85,10 +84,10 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
   const QuadricSamples samples{in.cloud, in.normals, in.weights};
   const double guess = std::max(w.typical_radius, in.density[cs]);
   RadiusQuerySource source(in.nonfeature_search, in.cloud[c], 2.0 * cap, 2.0 * 1.25 * guess);
-  w.sorted.clear();
+  w.candidates.clear();
   const RadiusSolution sol = solveRadius(samples, centre, in.density[cs], cap, guess,
                                          ball.tolerance, in.bbox_diagonal, params.error_form,
-                                         source, w.sorted);
+                                         source, w.candidates);
   ball.evaluations = static_cast<std::size_t>(sol.evaluations);
   ball.radius = sol.radius;
   ball.error = sol.error;
@@ -102,10 +101,10 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
   // Members: the non-feature points within r (c among them, at distance 0).
   w.offsets.clear();
   w.members.clear();
-  for (const BallCandidate& cand : w.sorted)
+  for (const BallCandidate& cand : w.candidates)
   {
     if (cand.distance > sol.radius)
-      break;
+      continue;
     w.members.push_back(cand.index);
     w.offsets.push_back(in.cloud[cand.index].getVector3fMap().cast<double>() - centre);
   }
@@ -209,7 +208,7 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
       cell_begin.push_back(e);
   const std::size_t cells = cell_begin.size();
   cell_begin.push_back(entries.size());
-  // Cells are sorted colour-major: colour_begin[col] is the first cell of colour >= col.
+  // Cells are candidates colour-major: colour_begin[col] is the first cell of colour >= col.
   std::vector<std::size_t> colour_begin(9, cells);
   std::size_t next_colour = 0;
   for (std::size_t k = 0; k < cells; ++k)

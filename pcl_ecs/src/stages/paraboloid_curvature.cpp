@@ -45,9 +45,12 @@ double paraboloidMeanCurvature(const Eigen::Vector3d& centre, const Eigen::Vecto
   }
   if (rows < cols)
     return 0.0;
+  // Householder QR (eq. 9 "solved by Householder transformation"); a column whose R diagonal is
+  // negligible means the neighbours do not determine the paraboloid.
   const Rows Ar = A.topRows(rows);
-  Eigen::ColPivHouseholderQR<Rows> qr(Ar);
-  if (qr.rank() < cols)
+  Eigen::HouseholderQR<Rows> qr(Ar);
+  const auto diag = qr.matrixQR().diagonal().cwiseAbs();
+  if (!(diag.minCoeff() > 1e-9 * diag.maxCoeff()))
     return 0.0;
   const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 5, 1> coef = qr.solve(Col(z.head(rows)));  // eq. 9
   const double a = coef(0), b = coef(1), c = coef(2);

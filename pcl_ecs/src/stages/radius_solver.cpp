@@ -17,15 +17,15 @@ double errorOf(const QuadricMinimum& minimum, double weight_sum, double L, Error
 }
 
 void candidatePlanes(const QuadricSamples& samples, const Eigen::Vector3d& centre,
-                     const std::vector<BallCandidate>& sorted, std::vector<CandidatePlane>& planes)
+                     const std::vector<BallCandidate>& candidates, std::vector<CandidatePlane>& planes)
 {
-  planes.resize(sorted.size());
-  for (std::size_t i = 0; i < sorted.size(); ++i)
+  planes.resize(candidates.size());
+  for (std::size_t i = 0; i < candidates.size(); ++i)
   {
-    const auto j = static_cast<std::size_t>(sorted[i].index);
+    const auto j = static_cast<std::size_t>(candidates[i].index);
     const Eigen::Vector3d n = samples.normals[j].cast<double>();
     const Eigen::Vector3d offset = samples.cloud[j].getVector3fMap().cast<double>() - centre;
-    planes[i] = {n, n.dot(offset), samples.weights[j], sorted[i].distance};
+    planes[i] = {n, n.dot(offset), samples.weights[j], candidates[i].distance};
   }
 }
 
@@ -39,7 +39,7 @@ RadiusEvaluation evaluateRadius(const std::vector<CandidatePlane>& planes, doubl
   for (const CandidatePlane& p : planes)
   {
     if (p.distance > R)
-      break;
+      continue;
     const double w = p.weight * kernelG(p.distance, R);
     if (w > 0.0)
       q.addPlane(w, p.normal, p.offset);
@@ -51,18 +51,18 @@ RadiusEvaluation evaluateRadius(const std::vector<CandidatePlane>& planes, doubl
 }
 
 RadiusEvaluation evaluateRadius(const QuadricSamples& samples, const Eigen::Vector3d& centre,
-                                const std::vector<BallCandidate>& sorted, double r, double L,
+                                const std::vector<BallCandidate>& candidates, double r, double L,
                                 ErrorForm form)
 {
   std::vector<CandidatePlane> planes;
-  candidatePlanes(samples, centre, sorted, planes);
+  candidatePlanes(samples, centre, candidates, planes);
   return evaluateRadius(planes, r, L, form);
 }
 
 RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d& centre,
                            double floor, double cap, double guess, double tolerance, double L,
                            ErrorForm form, CandidateSource& source,
-                           std::vector<BallCandidate>& sorted)
+                           std::vector<BallCandidate>& candidates)
 {
   RadiusSolution sol;
   floor = std::min(std::max(floor, 0.0), cap);
@@ -71,8 +71,8 @@ RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d&
 
   std::vector<CandidatePlane> planes;
   auto eval = [&](double r) {
-    if (source.ensure(2.0 * r, sorted) || planes.size() != sorted.size())
-      candidatePlanes(samples, centre, sorted, planes);
+    if (source.ensure(2.0 * r, candidates) || planes.size() != candidates.size())
+      candidatePlanes(samples, centre, candidates, planes);
     ++sol.evaluations;
     return evaluateRadius(planes, r, L, form);
   };
@@ -84,26 +84,33 @@ RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d&
     sol.x_min = ev.minimum.x;
   };
 
-  double lo = -1.0, hi = -1.0;
+  // E grows roughly like a power of r: steps and interpolation are made in log-log space, which
+  // lands near E = tolerance in a few evaluations; the bracket keeps the search safe where E is
+  // not monotone.
+  double lo = -1.0, hi = -1.0, e_lo = 0.0, e_hi = 0.0;
   const double start = std::min(std::max(guess, floor), cap);
   const RadiusEvaluation first = eval(start);
   if (first.error <= tolerance)
   {
     accept(first);
     lo = start;
-    // Grow until E exceeds the tolerance or the cap is reached.
+    e_lo = first.error;
+    // Grow until E exceeds the tolerance or the cap is reached (E ~ r² predicts the step).
     while (lo < cap)
     {
-      const double r = std::min(lo * 1.25, cap);
+      const double step = e_lo > 0.0 ? std::sqrt(tolerance / e_lo) : 2.0;
+      const double r = std::min(lo * std::min(std::max(step, 1.1), 2.0), cap);
       const RadiusEvaluation ev = eval(r);
       if (ev.error <= tolerance)
       {
         accept(ev);
         lo = r;
+        e_lo = ev.error;
       }
       else
       {
         hi = r;
+        e_hi = ev.error;
         break;
       }
     }
@@ -111,6 +118,7 @@ RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d&
   else
   {
     hi = start;
+    e_hi = first.error;
     if (start > floor)
     {
       const RadiusEvaluation at_floor = eval(floor);
@@ -118,23 +126,32 @@ RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d&
       {
         accept(at_floor);
         lo = floor;
+        e_lo = at_floor.error;
       }
     }
     if (lo < 0.0)
       return sol;  // even the smallest ball is too coarse here: keep the centre alone
   }
-  // Bisect between the last good and the first bad radius; keep the largest good one.
-  while (hi > 0.0 && hi - lo > 0.02 * hi)
+  // Refine between the last good and the first bad radius (to 2%); keep the largest good one.
+  for (int it = 0; hi > 0.0 && hi - lo > 0.02 * hi && it < 10; ++it)
   {
-    const double mid = 0.5 * (lo + hi);
-    const RadiusEvaluation ev = eval(mid);
+    double theta = 0.5;
+    if (e_lo > 0.0 && e_hi > e_lo)
+      theta = std::log(tolerance / e_lo) / std::log(e_hi / e_lo);
+    theta = std::min(std::max(theta, 0.15), 0.85);
+    const double r = lo * std::pow(hi / lo, theta);
+    const RadiusEvaluation ev = eval(r);
     if (ev.error <= tolerance)
     {
       accept(ev);
-      lo = mid;
+      lo = r;
+      e_lo = ev.error;
     }
     else
-      hi = mid;
+    {
+      hi = r;
+      e_hi = ev.error;
+    }
   }
   return sol;
 }

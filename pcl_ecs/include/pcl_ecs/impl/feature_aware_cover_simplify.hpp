@@ -2,7 +2,9 @@
 #pragma once
 
 #include <pcl_ecs/feature_aware_cover_simplify.h>
+#include <pcl_ecs/spatial_order.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <exception>
@@ -112,6 +114,13 @@ void FeatureAwareCoverSimplify<PointT>::applyFilter(PointCloud& output)
     result_.summary.finite_points = used.size();
     if (used.empty())
       return fail("the input has no finite points");
+    // Store the points in Morton order: every neighbour query of every stage is then local.
+    sortByMortonCode(
+        used, [&](int idx) {
+          const PointT& p = (*input_)[idx];
+          return Eigen::Vector3d(p.x, p.y, p.z);
+        },
+        lo, hi);
     const Eigen::Vector3d origin = 0.5 * (lo + hi);
     auto local = std::make_shared<LocalCloud>();
     local->resize(used.size());
@@ -152,10 +161,15 @@ void FeatureAwareCoverSimplify<PointT>::applyFilter(PointCloud& output)
         return n;
       return (viewpoint - at).dot(n.template cast<double>()) < 0.0 ? Eigen::Vector3f(-n) : n;
     };
+    std::vector<std::size_t> feature_locals;
+    feature_locals.reserve(n_features);
     for (std::size_t i = 0; i < used.size(); ++i)
+      if (core.is_feature[i])
+        feature_locals.push_back(i);
+    std::sort(feature_locals.begin(), feature_locals.end(),
+              [&](std::size_t a, std::size_t b) { return used[a] < used[b]; });  // input order
+    for (const std::size_t i : feature_locals)
     {
-      if (!core.is_feature[i])
-        continue;
       output[o] = (*input_)[used[i]];
       detail::setNormal(output[o], oriented(core.normals[i], (*local)[i].getVector3fMap().template cast<double>()));
       result_.labels.push_back(PointLabel::Feature);

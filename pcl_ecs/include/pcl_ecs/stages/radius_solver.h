@@ -42,7 +42,7 @@ struct QuadricSamples
 /** \brief E(r) for `form` given the quadric's minimum; L is the bounding-box diagonal. */
 double errorOf(const QuadricMinimum& minimum, double weight_sum, double L, ErrorForm form);
 
-/** \brief E(r) and x_min(r) at one radius, from the candidates sorted by distance. */
+/** \brief E(r) and x_min(r) at one radius. */
 struct RadiusEvaluation
 {
   double radius = 0.0;
@@ -61,17 +61,17 @@ struct CandidatePlane
   double distance;         ///< |p_j - c|
 };
 
-/** \brief The planes of `sorted`, in the same order. */
+/** \brief The planes of `candidates`, in the same order. */
 void candidatePlanes(const QuadricSamples& samples, const Eigen::Vector3d& centre,
-                     const std::vector<BallCandidate>& sorted, std::vector<CandidatePlane>& planes);
+                     const std::vector<BallCandidate>& candidates, std::vector<CandidatePlane>& planes);
 
-/** \brief Evaluate eq. 13-14 at radius r (> 0) over the prefix of `planes` within 2r. */
+/** \brief Evaluate eq. 13-14 at radius r (> 0) over the `planes` within 2r. */
 RadiusEvaluation evaluateRadius(const std::vector<CandidatePlane>& planes, double r, double L,
                                 ErrorForm form);
 
 /** \brief The same from the candidates (computes their planes first). */
 RadiusEvaluation evaluateRadius(const QuadricSamples& samples, const Eigen::Vector3d& centre,
-                                const std::vector<BallCandidate>& sorted, double r, double L,
+                                const std::vector<BallCandidate>& candidates, double r, double L,
                                 ErrorForm form);
 
 /** \brief The solve's answer. */
@@ -84,18 +84,19 @@ struct RadiusSolution
 };
 
 /** \brief Called when the solver needs candidates out to `needed_query_radius`: it must make
- * `sorted` hold every non-feature point within that distance, sorted (BallCandidate::operator<),
- * and return true when it changed `sorted`. */
+ * `candidates` hold every non-feature point within that distance (in any order that is the same
+ * from run to run: sums over them are made in that order), and return true when it changed them. */
 struct CandidateSource
 {
   virtual ~CandidateSource() = default;
-  virtual bool ensure(double needed_query_radius, std::vector<BallCandidate>& sorted) = 0;
+  virtual bool ensure(double needed_query_radius, std::vector<BallCandidate>& candidates) = 0;
 };
 
 /** \brief Eq. 15 solved for r in [floor, cap].
  * The bracket starts at `guess` (clamped to [floor, cap]; a typical radius of recent balls saves
- * evaluations): if E(guess) <= tolerance it grows by ×1.25 until E exceeds it or the cap is
- * reached, otherwise the floor must pass. Bisection then stops when the bracket is within 2%.
+ * evaluations): if E(guess) <= tolerance it grows (by the step E ~ r² predicts, ×1.1 to ×2) until
+ * E exceeds it or the cap is reached, otherwise the floor must pass. Interpolation in log E /
+ * log r (clamped to the inner 70% of the bracket) then stops when the bracket is within 2%.
  * \param[in] floor   smallest radius tried (the distance to c's nearest non-feature neighbour)
  * \param[in] cap     largest radius allowed (> 0)
  * \param[in] guess   first radius tried (<= 0: the floor)
@@ -104,6 +105,6 @@ struct CandidateSource
 RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d& centre,
                            double floor, double cap, double guess, double tolerance, double L,
                            ErrorForm form, CandidateSource& source,
-                           std::vector<BallCandidate>& sorted);
+                           std::vector<BallCandidate>& candidates);
 
 }  // namespace pcl_ecs

@@ -1,0 +1,50 @@
+#include <pcl_ecs/spatial_order.h>
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+namespace pcl_ecs
+{
+
+namespace
+{
+/// Spread the low 21 bits of v so that two zero bits separate each.
+std::uint64_t spread(std::uint64_t v)
+{
+  v &= 0x1FFFFFull;
+  v = (v | (v << 32)) & 0x1F00000000FFFFull;
+  v = (v | (v << 16)) & 0x1F0000FF0000FFull;
+  v = (v | (v << 8)) & 0x100F00F00F00F00Full;
+  v = (v | (v << 4)) & 0x10C30C30C30C30C3ull;
+  v = (v | (v << 2)) & 0x1249249249249249ull;
+  return v;
+}
+}  // namespace
+
+std::uint64_t mortonCode(const Eigen::Vector3d& p, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi)
+{
+  std::uint64_t code = 0;
+  for (int k = 0; k < 3; ++k)
+  {
+    const double extent = hi(k) - lo(k);
+    double t = extent > 0.0 ? (p(k) - lo(k)) / extent : 0.0;
+    t = std::min(std::max(std::isfinite(t) ? t : 0.0, 0.0), 1.0);
+    const auto cell = static_cast<std::uint64_t>(t * 2097151.0);  // 2^21 - 1
+    code |= spread(cell) << k;
+  }
+  return code;
+}
+
+void sortByMortonCode(std::vector<int>& ids, const std::function<Eigen::Vector3d(int)>& position,
+                      const Eigen::Vector3d& lo, const Eigen::Vector3d& hi)
+{
+  std::vector<std::pair<std::uint64_t, int>> keyed(ids.size());
+  for (std::size_t i = 0; i < ids.size(); ++i)
+    keyed[i] = {mortonCode(position(ids[i]), lo, hi), ids[i]};
+  std::sort(keyed.begin(), keyed.end());
+  for (std::size_t i = 0; i < ids.size(); ++i)
+    ids[i] = keyed[i].second;
+}
+
+}  // namespace pcl_ecs
