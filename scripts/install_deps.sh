@@ -9,6 +9,7 @@ pkgs=(
   libgtest-dev nlohmann-json3-dev libcgal-dev  # CGAL: the benchmark peers (and Cocone)
   clang libclang-rt-14-dev  # libFuzzer for the loader fuzz target
   python3
+  xvfb xauth libgl1-mesa-dri  # offscreen screenshots of the viewer (tests and README pictures)
 )
 missing=()
 for p in "${pkgs[@]}"; do
