@@ -6,6 +6,7 @@ pkgs=(
   libpcl-dev libeigen3-dev libflann-dev libboost-dev
   libopenmpi-dev            # Debian's VTK config (pulled in by PCL) needs MPI's C target
   libnanoflann-dev          # the fast K-d tree behind our PCL search back end
+  libyaml-cpp-dev           # ecs_node launch files
   libgtest-dev nlohmann-json3-dev libcgal-dev  # CGAL: the benchmark peers (and Cocone)
   clang libclang-rt-14-dev  # libFuzzer for the loader fuzz target
   python3

@@ -1,0 +1,403 @@
+// Integration tests of ecs_node over loopback TCP and temporary directories: order, bad frames,
+// SIGTERM in the middle, drop-oldest, the directory source and the launch files.
+#include "node/node_io.h"
+
+#include <pcl_ecs/io/cloud_io.h>
+
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <regex>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <pcl/conversions.h>
+#include <pcl/point_types.h>
+
+namespace fs = std::filesystem;
+using namespace pcl_ecs::node;
+
+namespace
+{
+const std::string kNode = ECS_NODE_PATH;
+
+/// A frame: a noisy sphere of n points whose intensity is the frame number everywhere.
+std::string makeFrame(int number, int n = 1500)
+{
+  pcl::PointCloud<pcl::PointXYZI> c;
+  std::mt19937 rng(static_cast<unsigned>(number));
+  std::normal_distribution<float> g(0.f, 1.f);
+  for (int i = 0; i < n; ++i)
+  {
+    Eigen::Vector3f d(g(rng), g(rng), g(rng));
+    d.normalize();
+    pcl::PointXYZI p;
+    p.getVector3fMap() = d * (1.0f + 0.002f * g(rng));
+    p.intensity = static_cast<float>(number);
+    c.push_back(p);
+  }
+  pcl::PCLPointCloud2 blob;
+  pcl::toPCLPointCloud2(c, blob);
+  return serializeBinaryPcd(blob);
+}
+
+/// The frame number an output carries (all its points must agree).
+int frameNumber(const std::string& bytes, std::size_t* points = nullptr)
+{
+  pcl::PCLPointCloud2 blob;
+  pcl_ecs::io::parsePcd(bytes, blob);
+  pcl::PointCloud<pcl::PointXYZI> c;
+  pcl::fromPCLPointCloud2(blob, c);
+  if (points)
+    *points = c.size();
+  if (c.empty())
+    return -1;
+  for (const auto& p : c)
+    if (p.intensity != c[0].intensity)
+      return -2;
+  return static_cast<int>(c[0].intensity);
+}
+
+int freePort()
+{
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  a.sin_port = 0;
+  ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a));
+  socklen_t len = sizeof(a);
+  ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
+  const int port = ntohs(a.sin_port);
+  ::close(fd);
+  return port;
+}
+
+int connectRetry(int port)
+{
+  for (int i = 0; i < 200; ++i)
+  {
+    const int fd = connectTcp("127.0.0.1", port);
+    if (fd >= 0)
+      return fd;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return -1;
+}
+
+/// A running node; its stderr goes to a file.
+struct Node
+{
+  pid_t pid = -1;
+  std::string err_path;
+
+  Node(const std::vector<std::string>& args, const std::string& err)
+    : err_path(err)
+  {
+    pid = ::fork();
+    if (pid == 0)
+    {
+      const int efd = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      ::dup2(efd, 2);
+      const int nul = ::open("/dev/null", O_RDWR);
+      ::dup2(nul, 0);
+      ::dup2(nul, 1);
+      std::vector<char*> argv;
+      argv.push_back(const_cast<char*>(kNode.c_str()));
+      for (const auto& a : args)
+        argv.push_back(const_cast<char*>(a.c_str()));
+      argv.push_back(nullptr);
+      ::execv(kNode.c_str(), argv.data());
+      ::_exit(127);
+    }
+  }
+  bool alive() const { return ::kill(pid, 0) == 0 && ::waitpid(pid, nullptr, WNOHANG) == 0; }
+  int stop()
+  {
+    ::kill(pid, SIGTERM);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    pid = -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+  ~Node()
+  {
+    if (pid > 0)
+    {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, nullptr, 0);
+    }
+  }
+  std::string stderrText() const
+  {
+    std::ifstream in(err_path);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  }
+  /// The counters of the summary line: in, out, dropped, bad.
+  std::array<long, 4> summary() const
+  {
+    const std::string t = stderrText();
+    std::smatch m;
+    std::array<long, 4> r = {-1, -1, -1, -1};
+    if (std::regex_search(t, m, std::regex("summary: frames in (\\d+) out (\\d+) dropped (\\d+) bad (\\d+)")))
+      for (int i = 0; i < 4; ++i)
+        r[static_cast<std::size_t>(i)] = std::stol(m[i + 1]);
+    return r;
+  }
+};
+
+class NodeTest : public ::testing::Test
+{
+protected:
+  void SetUp() override
+  {
+    char t[] = "/tmp/ecs_node_test_XXXXXX";
+    ASSERT_NE(::mkdtemp(t), nullptr);
+    dir = t;
+    fs::create_directory(dir / "out");
+    fs::create_directory(dir / "in");
+  }
+  void TearDown() override { fs::remove_all(dir); }
+
+  std::vector<fs::path> outputs() const
+  {
+    std::vector<fs::path> files;
+    for (const auto& e : fs::directory_iterator(dir / "out"))
+      files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    return files;
+  }
+  bool waitFor(const std::function<bool()>& cond, double seconds = 120.0) const
+  {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+    while (std::chrono::steady_clock::now() < end)
+    {
+      if (cond())
+        return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    return cond();
+  }
+  static std::string slurp(const fs::path& p)
+  {
+    std::ifstream in(p, std::ios::binary);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  }
+
+  fs::path dir;
+};
+}  // namespace
+
+TEST_F(NodeTest, TwoHundredFramesOverTcpArriveInOrder)
+{
+  const int in_port = freePort(), out_port = freePort();
+  Node node({"--source", "tcp:" + std::to_string(in_port), "--sink", "tcp-listen:" + std::to_string(out_port),
+             "--workers", "2", "--queue", "8"},
+            (dir / "err.txt").string());
+  const int producer = connectRetry(in_port);
+  ASSERT_GE(producer, 0);
+  const int consumer = connectRetry(out_port);
+  ASSERT_GE(consumer, 0);
+  std::thread send([&] {
+    for (int i = 0; i < 200; ++i)
+      writeFrame(producer, makeFrame(i));
+  });
+  std::string frame;
+  for (int i = 0; i < 200; ++i)
+  {
+    ASSERT_TRUE(readFrame(consumer, frame)) << "frame " << i;
+    std::size_t points = 0;
+    ASSERT_EQ(frameNumber(frame, &points), i);
+    EXPECT_GT(points, 10u);
+    EXPECT_LT(points, 1500u);
+    EXPECT_NE(frame.find("DATA binary\n"), std::string::npos);
+  }
+  send.join();
+  ::close(producer);
+  EXPECT_TRUE(node.alive());
+  EXPECT_EQ(node.stop(), 0);
+  ::close(consumer);
+  EXPECT_EQ(node.summary(), (std::array<long, 4>{200, 200, 0, 0})) << node.stderrText();
+}
+
+TEST_F(NodeTest, CorruptFramesAreCountedAndSkipped)
+{
+  const int port = freePort();
+  Node node({"--source", "tcp:" + std::to_string(port), "--sink", "dir:" + (dir / "out").string()},
+            (dir / "err.txt").string());
+  const int producer = connectRetry(port);
+  ASSERT_GE(producer, 0);
+  const std::set<int> corrupt = {3, 50, 51, 120, 199};
+  for (int i = 0; i < 200; ++i)
+    writeFrame(producer, corrupt.count(i) ? std::string("VERSION 0.7\nFIELDS x y z\ngarbage ") + std::to_string(i) : makeFrame(i));
+  ASSERT_TRUE(waitFor([&] { return outputs().size() >= 195; })) << outputs().size();
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const auto files = outputs();
+  ASSERT_EQ(files.size(), 195u);
+  int previous = -1;
+  for (const auto& f : files)
+  {
+    const int number = frameNumber(slurp(f));
+    EXPECT_GT(number, previous);
+    EXPECT_FALSE(corrupt.count(number));
+    previous = number;
+  }
+  // Still running and still working.
+  ASSERT_TRUE(node.alive());
+  writeFrame(producer, makeFrame(500));
+  ASSERT_TRUE(waitFor([&] { return outputs().size() == 196; }));
+  ::close(producer);
+  EXPECT_EQ(node.stop(), 0);
+  EXPECT_EQ(node.summary(), (std::array<long, 4>{201, 196, 0, 5})) << node.stderrText();
+  const std::string err = node.stderrText();
+  for (int c : corrupt)
+    EXPECT_NE(err.find("frame " + std::to_string(c) + " is bad"), std::string::npos) << c;
+}
+
+TEST_F(NodeTest, SigtermFinishesFramesInFlightAndLeavesNoPartialFile)
+{
+  const int port = freePort();
+  Node node({"--source", "tcp:" + std::to_string(port), "--sink", "dir:" + (dir / "out").string(),
+             "--workers", "1", "--queue", "16"},
+            (dir / "err.txt").string());
+  const int producer = connectRetry(port);
+  ASSERT_GE(producer, 0);
+  for (int i = 0; i < 40; ++i)
+    writeFrame(producer, makeFrame(i, 4000));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  EXPECT_EQ(node.stop(), 0);
+  ::close(producer);
+  const auto s = node.summary();
+  ASSERT_GE(s[0], 1) << node.stderrText();
+  // Every accepted frame is delivered or reported; what was delivered is all there, in order.
+  EXPECT_EQ(s[0], s[1] + s[2] + s[3]);
+  EXPECT_EQ(s[2] + s[3], 0);
+  const auto files = outputs();
+  EXPECT_EQ(static_cast<long>(files.size()), s[1]);
+  int previous = -1;
+  for (const auto& f : files)
+  {
+    EXPECT_NE(f.filename().string()[0], '.') << "temporary left: " << f;
+    const int number = frameNumber(slurp(f));
+    EXPECT_EQ(number, previous + 1);
+    previous = number;
+  }
+}
+
+TEST_F(NodeTest, DropOldestCountsEveryDrop)
+{
+  const int port = freePort();
+  Node node({"--source", "tcp:" + std::to_string(port), "--sink", "dir:" + (dir / "out").string(),
+             "--workers", "1", "--queue", "2", "--policy", "drop-oldest"},
+            (dir / "err.txt").string());
+  const int producer = connectRetry(port);
+  ASSERT_GE(producer, 0);
+  for (int i = 0; i < 100; ++i)
+    writeFrame(producer, makeFrame(i, 3000));
+  ::close(producer);
+  // Wait until the node is idle: the output count stops changing.
+  std::size_t last = 0;
+  ASSERT_TRUE(waitFor([&] {
+    const std::size_t now = outputs().size();
+    const bool stable = now == last && now > 0;
+    last = now;
+    std::this_thread::sleep_for(std::chrono::milliseconds(400));
+    return stable;
+  }));
+  EXPECT_EQ(node.stop(), 0);
+  const auto s = node.summary();
+  EXPECT_EQ(s[0], 100) << node.stderrText();
+  EXPECT_GT(s[2], 0) << "a queue of 2 with one worker must drop";
+  EXPECT_EQ(s[1] + s[2], 100);
+  EXPECT_EQ(s[3], 0);
+  EXPECT_EQ(static_cast<long>(outputs().size()), s[1]);
+  int previous = -1;
+  for (const auto& f : outputs())
+  {
+    const int number = frameNumber(slurp(f));
+    EXPECT_GT(number, previous);
+    previous = number;
+  }
+  EXPECT_NE(node.stderrText().find("dropped (queue full)"), std::string::npos);
+}
+
+TEST_F(NodeTest, DirectorySourceWithTheLaunchFile)
+{
+  for (int i = 0; i < 10; ++i)
+  {
+    std::ofstream f(dir / "in" / ("scan_" + std::to_string(100 + i) + ".pcd"), std::ios::binary);
+    f << makeFrame(i);
+  }
+  // The launch file's paths are overridden by the flags that follow it.
+  Node node({"--launch", std::string(PCL_ECS_SOURCE_DIR) + "/launch/directory_watcher.yaml", "--source",
+             "dir:" + (dir / "in").string(), "--sink", "dir:" + (dir / "out").string(), "--once"},
+            (dir / "err.txt").string());
+  int status = 0;
+  ::waitpid(node.pid, &status, 0);
+  node.pid = -1;
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0) << node.stderrText();
+  const auto files = outputs();
+  ASSERT_EQ(files.size(), 10u);
+  for (int i = 0; i < 10; ++i)
+  {
+    EXPECT_EQ(files[static_cast<std::size_t>(i)].filename().string(), "scan_" + std::to_string(100 + i) + ".pcd");
+    EXPECT_EQ(frameNumber(slurp(files[static_cast<std::size_t>(i)])), i);
+  }
+}
+
+TEST_F(NodeTest, EveryLaunchFileParsesAndBadOnesAreRefused)
+{
+  for (const char* name : {"lidar_stream.yaml", "directory_watcher.yaml", "pipe_stage1.yaml", "pipe_stage2.yaml"})
+  {
+    const std::string cmd = kNode + " --launch " + std::string(PCL_ECS_SOURCE_DIR) + "/launch/" + name +
+                            " --help > /dev/null 2>&1";
+    EXPECT_EQ(WEXITSTATUS(std::system(cmd.c_str())), 0) << name;
+  }
+  std::ofstream(dir / "bad.yaml") << "source: stdin\nfilter:\n  terr: -1\n";
+  std::ofstream(dir / "unknown.yaml") << "sourse: stdin\n";
+  std::ofstream(dir / "policy.yaml") << "policy: sometimes\n";
+  for (const char* name : {"bad.yaml", "unknown.yaml", "policy.yaml", "missing.yaml"})
+  {
+    const std::string cmd = kNode + " --launch " + (dir / name).string() + " > /dev/null 2>&1";
+    EXPECT_EQ(WEXITSTATUS(std::system(cmd.c_str())), 2) << name;
+  }
+}
+
+TEST_F(NodeTest, PipeBetweenTwoNodes)
+{
+  {
+    std::ofstream f(dir / "frames.bin", std::ios::binary);
+    const int fd = ::open((dir / "frames.bin").c_str(), O_WRONLY | O_TRUNC);
+    for (int i = 0; i < 5; ++i)
+      writeFrame(fd, makeFrame(i, 6000));
+    ::close(fd);
+  }
+  const std::string cmd = "cat " + (dir / "frames.bin").string() + " | " + kNode + " --launch " +
+                          PCL_ECS_SOURCE_DIR + "/launch/pipe_stage1.yaml | " + kNode + " --launch " +
+                          PCL_ECS_SOURCE_DIR + "/launch/pipe_stage2.yaml --quiet > " +
+                          (dir / "out.bin").string() + " 2> " + (dir / "err.txt").string();
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  const int fd = ::open((dir / "out.bin").c_str(), O_RDONLY);
+  std::string frame;
+  int count = 0;
+  while (readFrame(fd, frame))
+  {
+    std::size_t points = 0;
+    EXPECT_EQ(frameNumber(frame, &points), count);
+    EXPECT_NEAR(static_cast<double>(points), 2000.0, 20.0);  // stage 2's target size
+    ++count;
+  }
+  ::close(fd);
+  EXPECT_EQ(count, 5);
+}

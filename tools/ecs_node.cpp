@@ -1,0 +1,644 @@
+// ecs_node — a ROS-free streaming node: point cloud frames from a source (directory, TCP, stdin)
+// are simplified by worker threads with the filter and handed to a sink (directory, TCP, stdout)
+// in their original order. Configured by a launch file (YAML) and/or flags.
+#include "common/cli.h"
+#include "common/point_dispatch.h"
+#include "node/node_io.h"
+
+#include <pcl_ecs/feature_aware_cover_simplify.h>
+#include <pcl_ecs/io/cloud_io.h>
+#include <pcl_ecs/version.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <csignal>
+#include <cstdio>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <thread>
+
+#include <pcl/console/print.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <yaml-cpp/yaml.h>
+
+namespace fs = std::filesystem;
+using namespace pcl_ecs;
+using namespace pcl_ecs::node;
+using Clock = std::chrono::steady_clock;
+
+namespace
+{
+
+volatile bool g_stop = false;
+void onSignal(int) { g_stop = true; }
+
+const char* kUsage = R"(Usage: ecs_node [--launch FILE.yaml] [options]
+
+A long-running node: takes point cloud frames from a source, simplifies each with the filter, and
+hands them to a sink in the order they came. No ROS needed. SIGINT/SIGTERM stop the source, finish
+the frames in flight, flush the sink, print a summary and exit 0.
+
+  --launch FILE.yaml       read the options below from a launch file (flags given after it win)
+  --source S               dir:PATH | tcp:PORT | stdin            (default stdin)
+  --sink S                 dir:PATH | tcp:HOST:PORT | tcp-listen:PORT | stdout   (default stdout)
+  --queue N                frames waiting for a worker, >= 1 (default 8)
+  --policy P               when the queue is full: block (default) or drop-oldest
+  --workers N              worker threads, >= 1 (default 2)
+  --stats-interval S       seconds between stats lines on stderr, 0 = none (default 5)
+  --poll-ms MS             directory source: how often to look for new files (default 100)
+  --once                   directory source: process the files present, then exit
+  --quiet                  no stats lines, only errors and the summary
+
+Frames on TCP and pipes: an 8-byte little-endian length, then that many bytes holding a complete
+PCD file (any DATA encoding); output frames use the same framing with binary PCD (docs/NODE_PROTOCOL.md).
+A directory source reads *.pcd files in name order once each, when their size has been stable for
+one poll (writers should write to a temporary name and rename); a directory sink writes each output
+to a temporary name and renames it, so a consumer never sees half a frame.
+
+)";
+
+struct Options
+{
+  std::string source = "stdin", sink = "stdout";
+  std::size_t queue = 8;
+  bool drop_oldest = false;
+  int workers = 2;
+  double stats_interval = 5.0;
+  int poll_ms = 100;
+  bool once = false, quiet = false;
+  Parameters params;
+};
+
+void applyYaml(const std::string& path, Options& o)
+{
+  YAML::Node y;
+  try
+  {
+    y = YAML::LoadFile(path);
+  }
+  catch (const std::exception& e)
+  {
+    throw tools::UsageError(path + ": " + e.what());
+  }
+  static const std::set<std::string> known = {"source", "sink", "queue", "policy", "workers",
+                                              "stats_interval", "poll_ms", "once", "quiet", "filter"};
+  for (const auto& kv : y)
+    if (!known.count(kv.first.as<std::string>()))
+      throw tools::UsageError(path + ": unknown key '" + kv.first.as<std::string>() + "'");
+  try
+  {
+    if (y["source"]) o.source = y["source"].as<std::string>();
+    if (y["sink"]) o.sink = y["sink"].as<std::string>();
+    if (y["queue"]) o.queue = y["queue"].as<std::size_t>();
+    if (y["policy"])
+    {
+      const std::string p = y["policy"].as<std::string>();
+      if (p != "block" && p != "drop-oldest")
+        throw tools::UsageError(path + ": policy must be block or drop-oldest");
+      o.drop_oldest = p == "drop-oldest";
+    }
+    if (y["workers"]) o.workers = y["workers"].as<int>();
+    if (y["stats_interval"]) o.stats_interval = y["stats_interval"].as<double>();
+    if (y["poll_ms"]) o.poll_ms = y["poll_ms"].as<int>();
+    if (y["once"]) o.once = y["once"].as<bool>();
+    if (y["quiet"]) o.quiet = y["quiet"].as<bool>();
+    if (y["filter"])
+      for (const auto& kv : y["filter"])
+      {
+        // Filter keys are the pcd_simplify flags without the dashes: terr, alpha, k, ...
+        const std::string flag = "--" + kv.first.as<std::string>();
+        const std::string value = kv.second.IsScalar() ? kv.second.as<std::string>() : std::string();
+        const bool is_switch = flag == "--no-adapt" || flag == "--use-input-normals";
+        if (is_switch && value != "true")
+          continue;
+        if (!tools::applyFilterFlag(flag, [&] { return value; }, o.params))
+          throw tools::UsageError(path + ": unknown filter key '" + kv.first.as<std::string>() + "'");
+      }
+  }
+  catch (const YAML::Exception& e)
+  {
+    throw tools::UsageError(path + ": " + e.what());
+  }
+}
+
+Options parseArgs(int argc, char** argv, bool& done)
+{
+  Options o;
+  o.params.threads = 1;  // the workers are the parallelism of the node
+  done = false;
+  for (int i = 1; i < argc; ++i)
+  {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc)
+        throw tools::UsageError(a + " needs a value");
+      return argv[++i];
+    };
+    if (a == "--help" || a == "-h")
+    {
+      std::cout << kUsage << tools::filterFlagsHelp();
+      done = true;
+      return o;
+    }
+    if (a == "--version")
+    {
+      std::cout << "ecs_node (pcl_ecs) " << PCL_ECS_VERSION_STRING << "\n";
+      done = true;
+      return o;
+    }
+    if (a == "--launch")
+      applyYaml(value(), o);
+    else if (tools::applyFilterFlag(a, value, o.params))
+      continue;
+    else if (a == "--source")
+      o.source = value();
+    else if (a == "--sink")
+      o.sink = value();
+    else if (a == "--queue")
+      o.queue = tools::parseUnsignedFlag(a, value());
+    else if (a == "--policy")
+    {
+      const std::string p = value();
+      if (p != "block" && p != "drop-oldest")
+        throw tools::UsageError("--policy must be block or drop-oldest");
+      o.drop_oldest = p == "drop-oldest";
+    }
+    else if (a == "--workers")
+      o.workers = static_cast<int>(tools::parseIntFlag(a, value()));
+    else if (a == "--stats-interval")
+      o.stats_interval = tools::parseDoubleFlag(a, value());
+    else if (a == "--poll-ms")
+      o.poll_ms = static_cast<int>(tools::parseIntFlag(a, value()));
+    else if (a == "--once")
+      o.once = true;
+    else if (a == "--quiet" || a == "-q")
+      o.quiet = true;
+    else
+      throw tools::UsageError("unknown option '" + a + "' (see --help)");
+  }
+  if (o.queue < 1 || o.queue > 100000)
+    throw tools::UsageError("queue must be in [1, 100000]");
+  if (o.workers < 1 || o.workers > 256)
+    throw tools::UsageError("workers must be in [1, 256]");
+  if (!(o.stats_interval >= 0.0))
+    throw tools::UsageError("stats interval must be >= 0");
+  if (o.poll_ms < 1 || o.poll_ms > 60000)
+    throw tools::UsageError("poll-ms must be in [1, 60000]");
+  const std::string why = validate(o.params);
+  if (!why.empty())
+    throw tools::UsageError(why);
+  try
+  {
+    parseEndpoint(o.source, true);
+    parseEndpoint(o.sink, false);
+  }
+  catch (const std::invalid_argument& e)
+  {
+    throw tools::UsageError(e.what());
+  }
+  return o;
+}
+
+struct Frame
+{
+  std::uint64_t seq = 0;
+  std::string name;  // file name for a directory source, else empty
+  std::string bytes;
+  Clock::time_point arrived;
+};
+
+struct Outcome
+{
+  bool ok = false;
+  std::string name, bytes;
+  Clock::time_point arrived;
+  std::size_t points_in = 0, points_out = 0;
+};
+
+/// Counters and latencies, shared by every thread.
+struct Stats
+{
+  std::atomic<std::uint64_t> in{0}, out{0}, dropped{0}, bad{0}, sink_errors{0}, points_in{0}, points_out{0};
+  std::mutex m;
+  std::deque<double> latencies_ms;  // the last 2000 delivered frames
+
+  void latency(double ms)
+  {
+    std::lock_guard<std::mutex> lock(m);
+    latencies_ms.push_back(ms);
+    if (latencies_ms.size() > 2000)
+      latencies_ms.pop_front();
+  }
+  std::string line()
+  {
+    std::vector<double> l;
+    {
+      std::lock_guard<std::mutex> lock(m);
+      l.assign(latencies_ms.begin(), latencies_ms.end());
+    }
+    std::sort(l.begin(), l.end());
+    auto pct = [&](double p) { return l.empty() ? 0.0 : l[std::min(l.size() - 1, static_cast<std::size_t>(p * l.size()))]; };
+    char buf[512];
+    std::snprintf(buf, sizeof(buf),
+                  "frames in %llu out %llu dropped %llu bad %llu sink-errors %llu | latency ms p50 %.1f p99 %.1f | points in %llu out %llu",
+                  static_cast<unsigned long long>(in), static_cast<unsigned long long>(out),
+                  static_cast<unsigned long long>(dropped), static_cast<unsigned long long>(bad),
+                  static_cast<unsigned long long>(sink_errors), pct(0.5), pct(0.99),
+                  static_cast<unsigned long long>(points_in), static_cast<unsigned long long>(points_out));
+    return buf;
+  }
+};
+
+/// Finished frames wait here until every earlier one is done: the sink sees them in order.
+class Reorder
+{
+public:
+  void put(std::uint64_t seq, std::optional<Outcome> outcome)  // nullopt: skipped (bad, dropped)
+  {
+    std::lock_guard<std::mutex> lock(m_);
+    done_[seq] = std::move(outcome);
+    cv_.notify_all();
+  }
+  /// The next frame in order; false when the input has ended and all is delivered.
+  bool next(std::optional<Outcome>& out)
+  {
+    std::unique_lock<std::mutex> lock(m_);
+    cv_.wait(lock, [&] { return done_.count(next_) || (ended_ && next_ >= total_); });
+    if (!done_.count(next_))
+      return false;
+    out = std::move(done_[next_]);
+    done_.erase(next_++);
+    return true;
+  }
+  void end(std::uint64_t total)
+  {
+    std::lock_guard<std::mutex> lock(m_);
+    ended_ = true;
+    total_ = total;
+    cv_.notify_all();
+  }
+
+private:
+  std::mutex m_;
+  std::condition_variable cv_;
+  std::map<std::uint64_t, std::optional<Outcome>> done_;
+  std::uint64_t next_ = 0, total_ = 0;
+  bool ended_ = false;
+};
+
+/// The bounded queue between the source and the workers.
+class FrameQueue
+{
+public:
+  FrameQueue(std::size_t capacity, bool drop_oldest, Stats& stats, Reorder& reorder)
+    : capacity_(capacity), drop_oldest_(drop_oldest), stats_(stats), reorder_(reorder)
+  {
+  }
+  void push(Frame f)
+  {
+    std::unique_lock<std::mutex> lock(m_);
+    if (drop_oldest_)
+    {
+      while (q_.size() >= capacity_)
+      {
+        const std::uint64_t seq = q_.front().seq;
+        q_.pop_front();
+        ++stats_.dropped;
+        std::fprintf(stderr, "ecs_node: frame %llu dropped (queue full)\n", static_cast<unsigned long long>(seq));
+        reorder_.put(seq, std::nullopt);
+      }
+    }
+    else
+      not_full_.wait(lock, [&] { return q_.size() < capacity_; });
+    q_.push_back(std::move(f));
+    not_empty_.notify_one();
+  }
+  bool pop(Frame& f)
+  {
+    std::unique_lock<std::mutex> lock(m_);
+    not_empty_.wait(lock, [&] { return !q_.empty() || closed_; });
+    if (q_.empty())
+      return false;
+    f = std::move(q_.front());
+    q_.pop_front();
+    not_full_.notify_one();
+    return true;
+  }
+  void close()
+  {
+    std::lock_guard<std::mutex> lock(m_);
+    closed_ = true;
+    not_empty_.notify_all();
+  }
+
+private:
+  std::size_t capacity_;
+  bool drop_oldest_;
+  Stats& stats_;
+  Reorder& reorder_;
+  std::mutex m_;
+  std::condition_variable not_full_, not_empty_;
+  std::deque<Frame> q_;
+  bool closed_ = false;
+};
+
+/// Simplify one frame; throws with the reason when it cannot be parsed or processed.
+Outcome process(const Frame& f, const Parameters& params)
+{
+  pcl::PCLPointCloud2 blob;
+  io::parsePcd(f.bytes, blob);
+  std::string dropped;
+  const tools::PointKind kind = tools::choosePointKind(blob, dropped);
+  Outcome out;
+  out.name = f.name;
+  out.arrived = f.arrived;
+  out.points_in = static_cast<std::size_t>(blob.width) * blob.height;
+  tools::dispatchPointKind(kind, [&](auto tag) {
+    using PointT = decltype(tag);
+    auto cloud = std::make_shared<pcl::PointCloud<PointT>>();
+    pcl::fromPCLPointCloud2(blob, *cloud);
+    FeatureAwareCoverSimplify<PointT> filter;
+    filter.setParameters(params);
+    filter.setInputCloud(cloud);
+    pcl::PointCloud<PointT> simplified;
+    filter.filter(simplified);
+    if (!filter.getResult().error.empty())
+      throw std::runtime_error(filter.getResult().error);
+    pcl::PCLPointCloud2 result;
+    pcl::toPCLPointCloud2(simplified, result);
+    out.bytes = serializeBinaryPcd(result);
+    out.points_out = simplified.size();
+    return 0;
+  });
+  out.ok = true;
+  return out;
+}
+
+/// Reads frames from the source until it ends or the node is stopped; returns the count.
+std::uint64_t runSource(const Options& o, FrameQueue& queue, Stats& stats)
+{
+  const Endpoint e = parseEndpoint(o.source, true);
+  std::uint64_t seq = 0;
+  auto accept_frame = [&](std::string bytes, const std::string& name) {
+    Frame f;
+    f.seq = seq++;
+    f.name = name;
+    f.bytes = std::move(bytes);
+    f.arrived = Clock::now();
+    ++stats.in;
+    queue.push(std::move(f));
+  };
+  auto read_stream = [&](int fd) {
+    std::string bytes;
+    try
+    {
+      while (!g_stop && readFrame(fd, bytes, &g_stop))
+        accept_frame(std::move(bytes), "");
+    }
+    catch (const StreamError& err)
+    {
+      std::fprintf(stderr, "ecs_node: source: %s; dropping the connection\n", err.what());
+    }
+  };
+  if (e.kind == Endpoint::Kind::Stdio)
+    read_stream(STDIN_FILENO);
+  else if (e.kind == Endpoint::Kind::Tcp)
+  {
+    const int lfd = listenTcp(e.port);
+    while (!g_stop)
+    {
+      const int fd = acceptTcp(lfd, 100);
+      if (fd < 0)
+        continue;
+      read_stream(fd);
+      ::close(fd);
+    }
+    ::close(lfd);
+  }
+  else  // directory
+  {
+    std::set<std::string> seen;
+    std::map<std::string, std::uintmax_t> pending;  // name -> size at the last poll
+    while (!g_stop)
+    {
+      std::vector<std::string> names;
+      std::error_code ec;
+      for (const auto& entry : fs::directory_iterator(e.path, ec))
+      {
+        const std::string name = entry.path().filename().string();
+        if (name.empty() || name[0] == '.' || entry.path().extension() != ".pcd" || seen.count(name))
+          continue;
+        names.push_back(name);
+      }
+      std::sort(names.begin(), names.end());
+      bool waiting = false;
+      for (const auto& name : names)
+      {
+        const fs::path p = fs::path(e.path) / name;
+        const std::uintmax_t size = fs::file_size(p, ec);
+        if (ec)
+          continue;
+        auto it = pending.find(name);
+        if (it == pending.end() || it->second != size)
+        {
+          pending[name] = size;  // seen for the first time, or still growing: wait a poll
+          waiting = true;
+          break;  // keep name order: nothing after an unfinished file
+        }
+        std::ifstream in(p, std::ios::binary);
+        std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        seen.insert(name);
+        pending.erase(name);
+        accept_frame(std::move(bytes), name);
+      }
+      if (o.once && !waiting)
+      {
+        // Everything present has been read once its size was stable.
+        bool any_left = false;
+        for (const auto& name : names)
+          any_left = any_left || !seen.count(name);
+        if (!any_left)
+          break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(o.poll_ms));
+    }
+  }
+  return seq;
+}
+
+/// Delivers outcomes in order until the input has ended and everything is delivered.
+void runSink(const Options& o, Reorder& reorder, Stats& stats)
+{
+  const Endpoint e = parseEndpoint(o.sink, false);
+  int fd = e.kind == Endpoint::Kind::Stdio ? STDOUT_FILENO : -1;
+  int lfd = e.kind == Endpoint::Kind::TcpListen ? listenTcp(e.port) : -1;
+  std::uint64_t delivered = 0;
+  std::optional<Outcome> next;
+  while (reorder.next(next))
+  {
+    if (!next)
+      continue;  // a bad or dropped frame: already counted and reported
+    const Outcome& out = *next;
+    try
+    {
+      if (e.kind == Endpoint::Kind::Dir)
+      {
+        char buf[64];
+        std::snprintf(buf, sizeof(buf), "frame_%010llu.pcd", static_cast<unsigned long long>(delivered));
+        const std::string name = out.name.empty() ? std::string(buf) : out.name;
+        io::AtomicOutput file((fs::path(e.path) / name).string());
+        {
+          std::ofstream f(file.tempPath(), std::ios::binary);
+          f.write(out.bytes.data(), static_cast<std::streamsize>(out.bytes.size()));
+          if (!f)
+            throw StreamError("cannot write " + file.tempPath());
+        }
+        file.commit();
+      }
+      else
+      {
+        while (fd < 0)
+        {
+          if (g_stop)
+            throw StreamError("stopped before a consumer was connected");
+          fd = e.kind == Endpoint::Kind::Tcp ? connectTcp(e.host, e.port) : acceptTcp(lfd, 200);
+          if (fd < 0)
+            std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        }
+        writeFrame(fd, out.bytes);
+      }
+      ++delivered;
+      ++stats.out;
+      stats.points_out += out.points_out;
+      stats.latency(std::chrono::duration<double, std::milli>(Clock::now() - out.arrived).count());
+    }
+    catch (const std::exception& err)
+    {
+      ++stats.sink_errors;
+      std::fprintf(stderr, "ecs_node: sink: %s; frame lost\n", err.what());
+      if (fd >= 0 && fd != STDOUT_FILENO)
+      {
+        ::close(fd);
+        fd = -1;
+      }
+    }
+  }
+  if (fd >= 0 && fd != STDOUT_FILENO)
+    ::close(fd);
+  if (lfd >= 0)
+    ::close(lfd);
+}
+
+int runNode(int argc, char** argv)
+{
+  bool done = false;
+  const Options o = parseArgs(argc, argv, done);
+  if (done)
+    return tools::kExitOk;
+  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
+  const Endpoint src = parseEndpoint(o.source, true), snk = parseEndpoint(o.sink, false);
+  if (src.kind == Endpoint::Kind::Dir && !fs::is_directory(src.path))
+    throw tools::UsageError("source directory " + src.path + " does not exist");
+  if (snk.kind == Endpoint::Kind::Dir && !fs::is_directory(snk.path))
+    throw tools::UsageError("sink directory " + snk.path + " does not exist");
+
+  struct sigaction sa{};
+  sa.sa_handler = onSignal;
+  sigemptyset(&sa.sa_mask);
+  ::sigaction(SIGINT, &sa, nullptr);
+  ::sigaction(SIGTERM, &sa, nullptr);
+  std::signal(SIGPIPE, SIG_IGN);
+
+  Stats stats;
+  Reorder reorder;
+  FrameQueue queue(o.queue, o.drop_oldest, stats, reorder);
+  std::vector<std::thread> workers;
+  for (int w = 0; w < o.workers; ++w)
+    workers.emplace_back([&] {
+      Frame f;
+      while (queue.pop(f))
+      {
+        try
+        {
+          Outcome out = process(f, o.params);
+          stats.points_in += out.points_in;
+          reorder.put(f.seq, std::move(out));
+        }
+        catch (const std::exception& err)
+        {
+          ++stats.bad;
+          std::fprintf(stderr, "ecs_node: frame %llu%s%s is bad: %s\n", static_cast<unsigned long long>(f.seq),
+                       f.name.empty() ? "" : " ", f.name.c_str(), err.what());
+          reorder.put(f.seq, std::nullopt);
+        }
+      }
+    });
+  std::thread sink([&] { runSink(o, reorder, stats); });
+  std::atomic<bool> finished{false};
+  std::thread ticker([&] {
+    auto last = Clock::now();
+    while (!finished)
+    {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      if (o.stats_interval > 0 && !o.quiet &&
+          std::chrono::duration<double>(Clock::now() - last).count() >= o.stats_interval)
+      {
+        last = Clock::now();
+        std::fprintf(stderr, "ecs_node: %s\n", stats.line().c_str());
+      }
+    }
+  });
+  if (!o.quiet)
+    std::fprintf(stderr, "ecs_node: %s -> %s, %d workers, queue %zu (%s)\n", o.source.c_str(), o.sink.c_str(),
+                 o.workers, o.queue, o.drop_oldest ? "drop-oldest" : "block");
+
+  std::uint64_t total = 0;
+  try
+  {
+    total = runSource(o, queue, stats);
+  }
+  catch (const std::exception& err)
+  {
+    std::fprintf(stderr, "ecs_node: source: %s\n", err.what());
+    g_stop = true;
+  }
+  // Finish the frames in flight, flush the sink.
+  queue.close();
+  for (auto& w : workers)
+    w.join();
+  reorder.end(total);
+  sink.join();
+  finished = true;
+  ticker.join();
+  std::fprintf(stderr, "ecs_node: summary: %s\n", stats.line().c_str());
+  return tools::kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  try
+  {
+    return runNode(argc, argv);
+  }
+  catch (const tools::UsageError& e)
+  {
+    std::fprintf(stderr, "ecs_node: %s\n", e.what());
+    return tools::kExitUsage;
+  }
+  catch (const std::exception& e)
+  {
+    std::fprintf(stderr, "ecs_node: internal error: %s\n", e.what());
+    return tools::kExitInternal;
+  }
+}

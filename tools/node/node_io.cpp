@@ -1,0 +1,290 @@
+#include "node_io.h"
+
+#include <arpa/inet.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <vector>
+#include <cstring>
+#include <sstream>
+
+namespace pcl_ecs
+{
+namespace node
+{
+
+namespace
+{
+int parsePort(const std::string& s, const std::string& whole)
+{
+  char* end = nullptr;
+  const long v = std::strtol(s.c_str(), &end, 10);
+  if (s.empty() || end != s.c_str() + s.size() || v < 1 || v > 65535)
+    throw std::invalid_argument("'" + whole + "': port must be in [1, 65535]");
+  return static_cast<int>(v);
+}
+
+const char* pcdType(std::uint8_t dt, int& size)
+{
+  switch (dt)
+  {
+  case pcl::PCLPointField::INT8: size = 1; return "I";
+  case pcl::PCLPointField::UINT8: size = 1; return "U";
+  case pcl::PCLPointField::INT16: size = 2; return "I";
+  case pcl::PCLPointField::UINT16: size = 2; return "U";
+  case pcl::PCLPointField::INT32: size = 4; return "I";
+  case pcl::PCLPointField::UINT32: size = 4; return "U";
+  case pcl::PCLPointField::FLOAT64: size = 8; return "F";
+  default: size = 4; return "F";
+  }
+}
+}  // namespace
+
+Endpoint parseEndpoint(const std::string& text, bool is_source)
+{
+  Endpoint e;
+  if (text == (is_source ? "stdin" : "stdout"))
+    return e;
+  if (text.rfind("dir:", 0) == 0 && text.size() > 4)
+  {
+    e.kind = Endpoint::Kind::Dir;
+    e.path = text.substr(4);
+    return e;
+  }
+  if (!is_source && text.rfind("tcp-listen:", 0) == 0)
+  {
+    e.kind = Endpoint::Kind::TcpListen;
+    e.port = parsePort(text.substr(11), text);
+    return e;
+  }
+  if (text.rfind("tcp:", 0) == 0)
+  {
+    e.kind = Endpoint::Kind::Tcp;
+    const std::string rest = text.substr(4);
+    if (is_source)
+      e.port = parsePort(rest, text);
+    else
+    {
+      const auto colon = rest.rfind(':');
+      if (colon == std::string::npos || colon == 0)
+        throw std::invalid_argument("'" + text + "': a TCP sink is tcp:HOST:PORT");
+      e.host = rest.substr(0, colon);
+      e.port = parsePort(rest.substr(colon + 1), text);
+    }
+    return e;
+  }
+  throw std::invalid_argument("'" + text + "' is not " +
+                              (is_source ? std::string("dir:PATH, tcp:PORT or stdin")
+                                         : std::string("dir:PATH, tcp:HOST:PORT, tcp-listen:PORT or stdout")));
+}
+
+std::string serializeBinaryPcd(const pcl::PCLPointCloud2& c)
+{
+  // A PCD point is its fields packed one after another: copy each field out of the (possibly
+  // padded, aligned) PCL layout into a packed record.
+  std::vector<const pcl::PCLPointField*> fields;
+  for (const auto& f : c.fields)
+    if (f.name != "_" && f.count > 0)
+      fields.push_back(&f);
+  std::sort(fields.begin(), fields.end(), [](auto* a, auto* b) { return a->offset < b->offset; });
+  std::ostringstream h;
+  h << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS";
+  for (auto* f : fields)
+    h << " " << f->name;
+  h << "\nSIZE";
+  std::vector<std::size_t> bytes;
+  std::size_t packed = 0;
+  for (auto* f : fields)
+  {
+    int size = 4;
+    pcdType(f->datatype, size);
+    h << " " << size;
+    bytes.push_back(static_cast<std::size_t>(size) * f->count);
+    packed += bytes.back();
+  }
+  h << "\nTYPE";
+  for (auto* f : fields)
+  {
+    int size = 4;
+    h << " " << pcdType(f->datatype, size);
+  }
+  h << "\nCOUNT";
+  for (auto* f : fields)
+    h << " " << f->count;
+  const std::size_t n = static_cast<std::size_t>(c.width) * c.height;
+  h << "\nWIDTH " << c.width << "\nHEIGHT " << c.height << "\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << n
+    << "\nDATA binary\n";
+  std::string out = h.str();
+  const std::size_t start = out.size();
+  out.resize(start + n * packed);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    char* dst = out.data() + start + i * packed;
+    const std::uint8_t* src = c.data.data() + i * c.point_step;
+    for (std::size_t k = 0; k < fields.size(); ++k)
+    {
+      std::memcpy(dst, src + fields[k]->offset, bytes[k]);
+      dst += bytes[k];
+    }
+  }
+  return out;
+}
+
+bool readExact(int fd, void* data, std::size_t n, const volatile bool* stop)
+{
+  auto* p = static_cast<std::uint8_t*>(data);
+  std::size_t got = 0;
+  while (got < n)
+  {
+    if (stop)
+    {
+      pollfd pfd{fd, POLLIN, 0};
+      const int r = ::poll(&pfd, 1, 100);
+      if (r == 0)
+      {
+        if (*stop && got == 0)
+          return false;
+        continue;
+      }
+      if (r < 0 && errno == EINTR)
+        continue;
+    }
+    const ssize_t r = ::read(fd, p + got, n - got);
+    if (r == 0)
+    {
+      if (got == 0)
+        return false;
+      throw StreamError("the stream ended in the middle of a frame");
+    }
+    if (r < 0)
+    {
+      if (errno == EINTR || errno == EAGAIN)
+        continue;
+      throw StreamError(std::string("read error: ") + std::strerror(errno));
+    }
+    got += static_cast<std::size_t>(r);
+  }
+  return true;
+}
+
+void writeAll(int fd, const void* data, std::size_t n)
+{
+  const auto* p = static_cast<const std::uint8_t*>(data);
+  std::size_t put = 0;
+  while (put < n)
+  {
+    const ssize_t w = ::send(fd, p + put, n - put, MSG_NOSIGNAL);
+    if (w < 0 && errno == ENOTSOCK)
+    {
+      const ssize_t v = ::write(fd, p + put, n - put);
+      if (v < 0)
+      {
+        if (errno == EINTR)
+          continue;
+        throw StreamError(std::string("write error: ") + std::strerror(errno));
+      }
+      put += static_cast<std::size_t>(v);
+      continue;
+    }
+    if (w < 0)
+    {
+      if (errno == EINTR)
+        continue;
+      throw StreamError(std::string("write error: ") + std::strerror(errno));
+    }
+    put += static_cast<std::size_t>(w);
+  }
+}
+
+bool readFrame(int fd, std::string& frame, const volatile bool* stop)
+{
+  std::uint8_t len_bytes[8];
+  if (!readExact(fd, len_bytes, 8, stop))
+    return false;
+  std::uint64_t len = 0;
+  for (int i = 7; i >= 0; --i)
+    len = (len << 8) | len_bytes[i];
+  if (len > kMaxFrameBytes)
+    throw StreamError("frame length " + std::to_string(len) + " exceeds 1 GiB: corrupt stream");
+  frame.resize(len);
+  if (len > 0 && !readExact(fd, frame.data(), len, nullptr))
+    throw StreamError("the stream ended in the middle of a frame");
+  return true;
+}
+
+void writeFrame(int fd, const std::string& frame)
+{
+  std::uint8_t len_bytes[8];
+  std::uint64_t len = frame.size();
+  for (int i = 0; i < 8; ++i)
+    len_bytes[i] = static_cast<std::uint8_t>(len >> (8 * i));
+  writeAll(fd, len_bytes, 8);
+  writeAll(fd, frame.data(), frame.size());
+}
+
+int listenTcp(int port)
+{
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  if (fd < 0)
+    throw StreamError(std::string("socket: ") + std::strerror(errno));
+  const int one = 1;
+  ::setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one));
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_ANY);
+  addr.sin_port = htons(static_cast<std::uint16_t>(port));
+  if (::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0 || ::listen(fd, 4) != 0)
+  {
+    const std::string why = std::strerror(errno);
+    ::close(fd);
+    throw StreamError("cannot listen on port " + std::to_string(port) + ": " + why);
+  }
+  return fd;
+}
+
+int acceptTcp(int listen_fd, int timeout_ms)
+{
+  pollfd pfd{listen_fd, POLLIN, 0};
+  if (::poll(&pfd, 1, timeout_ms) <= 0)
+    return -1;
+  const int fd = ::accept(listen_fd, nullptr, nullptr);
+  if (fd >= 0)
+  {
+    const int one = 1;
+    ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof(one));
+  }
+  return fd;
+}
+
+int connectTcp(const std::string& host, int port)
+{
+  addrinfo hints{};
+  hints.ai_family = AF_INET;
+  hints.ai_socktype = SOCK_STREAM;
+  addrinfo* res = nullptr;
+  if (::getaddrinfo(host.c_str(), std::to_string(port).c_str(), &hints, &res) != 0 || !res)
+    return -1;
+  const int fd = ::socket(res->ai_family, res->ai_socktype, res->ai_protocol);
+  if (fd >= 0 && ::connect(fd, res->ai_addr, res->ai_addrlen) != 0)
+  {
+    ::close(fd);
+    ::freeaddrinfo(res);
+    return -1;
+  }
+  ::freeaddrinfo(res);
+  if (fd >= 0)
+  {
+    const int one = 1;
+    ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof(one));
+  }
+  return fd;
+}
+
+}  // namespace node
+}  // namespace pcl_ecs
