@@ -12,6 +12,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <unistd.h>
 #include <iostream>
 #include <sstream>
 
@@ -469,6 +472,28 @@ int run(int argc, char** argv)
     return tools::kExitOk;
   }
   pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
+  if (!app.opt.screenshot.empty())
+  {
+    // Offscreen rendering with Debian's VTK still needs an X server: without a display, start a
+    // virtual one (Xvfb) around ourselves, so a screenshot works on a headless machine.
+    const char* display = std::getenv("DISPLAY");
+    if ((!display || !*display) && !std::getenv("PCL_ECS_VIEWER_IN_XVFB"))
+    {
+      ::setenv("PCL_ECS_VIEWER_IN_XVFB", "1", 1);
+      const std::string self = std::filesystem::read_symlink("/proc/self/exe").string();
+      const std::string screen = "-screen 0 " + std::to_string(std::max(app.opt.width, 1920)) + "x" +
+                                 std::to_string(std::max(app.opt.height, 1080)) + "x24";
+      std::vector<std::string> args = {"xvfb-run", "-a", "-s", screen, self};
+      args.insert(args.end(), argv + 1, argv + argc);
+      std::vector<char*> cargs;
+      for (auto& a : args)
+        cargs.push_back(a.data());
+      cargs.push_back(nullptr);
+      ::execvp("xvfb-run", cargs.data());
+      std::fprintf(stderr, "pcl_ecs_viewer: --screenshot needs an X display or xvfb-run (apt-get install xvfb)\n");
+      return tools::kExitOutput;
+    }
+  }
   try
   {
     loadScene(app.scene, app.opt);

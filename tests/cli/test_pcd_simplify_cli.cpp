@@ -257,14 +257,12 @@ TEST_F(Cli, BadFilesAreRefusedWithExitCode3AndNoOutput)
   expectRefused(path("line.pcd") + out, 3, inputs, "line");
   expectRefused(path("mostlynan.pcd") + out, 3, inputs, "only 10 finite points");
   expectRefused(path("text.pcd") + " " + path("out.xyz"), 2, inputs, "must be .pcd or .ply");
-  if (::geteuid() != 0)
-  {
-    write("locked.pcd", asciiPcd(line));
-    fs::permissions(path("locked.pcd"), fs::perms::none);
-    auto with_locked = inputs;
-    with_locked.insert("locked.pcd");
-    expectRefused(path("locked.pcd") + out, 3, with_locked, "cannot be opened");
-  }
+  // Unreadable, even for root (CI runs as root, which ignores file permissions): a name that
+  // leads to /proc/self/mem, whose first page cannot be read.
+  fs::create_symlink("/proc/self/mem", path("unreadable.pcd"));
+  auto with_unreadable = inputs;
+  with_unreadable.insert("unreadable.pcd");
+  expectRefused(path("unreadable.pcd") + out, 3, with_unreadable, "cannot be read");
 }
 
 TEST_F(Cli, BadParametersAreUsageErrors)

@@ -1,5 +1,6 @@
-// pcl_ecs_viewer --screenshot on the bunny, rendered under Xvfb: a PNG of the asked size whose
-// three thirds each show drawn points, and whose middle third shows the feature colour.
+// pcl_ecs_viewer --screenshot on the bunny, with no display (the viewer renders under an Xvfb it
+// starts itself): a PNG of the asked size whose three thirds each show drawn points, and whose
+// middle third shows the feature colour.
 #include "viewer/viewer_logic.h"
 
 #include <cstdlib>
@@ -15,12 +16,10 @@ namespace fs = std::filesystem;
 
 namespace
 {
-/// The viewer command, under xvfb-run when there is no display.
+/// The viewer command with no display at all: the viewer must start its own Xvfb.
 std::string viewerCommand(const std::string& args)
 {
-  const char* display = std::getenv("DISPLAY");
-  const std::string prefix = (display && *display) ? "" : "xvfb-run -a -s '-screen 0 1920x1080x24' ";
-  return prefix + PCL_ECS_VIEWER_PATH + std::string(" ") + args + " > /dev/null 2>&1";
+  return std::string("env -u DISPLAY ") + PCL_ECS_VIEWER_PATH + " " + args + " > /dev/null 2>&1";
 }
 }  // namespace
 

@@ -68,9 +68,17 @@ void readCloud(const std::string& path, pcl::PCLPointCloud2& cloud)
   std::ifstream in(path, std::ios::binary);
   if (!in)
     throw FileError(path + ": cannot be opened for reading (" + std::strerror(errno) + ")");
-  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string bytes;
+  try
+  {
+    bytes.assign((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  }
+  catch (const std::exception& e)
+  {
+    throw FileError(path + ": cannot be read (" + e.what() + ")");
+  }
   if (in.bad())
-    throw FileError(path + ": read error");
+    throw FileError(path + ": cannot be read (I/O error)");
   if (bytes.empty())
     throw FileError(path + ": the file is empty");
   try
