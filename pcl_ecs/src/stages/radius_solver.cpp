@@ -88,50 +88,33 @@ RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d&
   // lands near E = tolerance in a few evaluations; the bracket keeps the search safe where E is
   // not monotone.
   double lo = -1.0, hi = -1.0, e_lo = 0.0, e_hi = 0.0;
+  // Evaluate r and move the matching end of the bracket; true when E(r) <= tolerance.
+  auto probe = [&](double r) {
+    const RadiusEvaluation ev = eval(r);
+    if (ev.error <= tolerance)
+    {
+      accept(ev);
+      lo = r;
+      e_lo = ev.error;
+      return true;
+    }
+    hi = r;
+    e_hi = ev.error;
+    return false;
+  };
   const double start = std::min(std::max(guess, floor), cap);
-  const RadiusEvaluation first = eval(start);
-  if (first.error <= tolerance)
+  if (probe(start))
   {
-    accept(first);
-    lo = start;
-    e_lo = first.error;
     // Grow until E exceeds the tolerance or the cap is reached (E ~ r² predicts the step).
     while (lo < cap)
     {
       const double step = e_lo > 0.0 ? std::sqrt(tolerance / e_lo) : 2.0;
-      const double r = std::min(lo * std::min(std::max(step, 1.1), 2.0), cap);
-      const RadiusEvaluation ev = eval(r);
-      if (ev.error <= tolerance)
-      {
-        accept(ev);
-        lo = r;
-        e_lo = ev.error;
-      }
-      else
-      {
-        hi = r;
-        e_hi = ev.error;
+      if (!probe(std::min(lo * std::min(std::max(step, 1.1), 2.0), cap)))
         break;
-      }
     }
   }
-  else
-  {
-    hi = start;
-    e_hi = first.error;
-    if (start > floor)
-    {
-      const RadiusEvaluation at_floor = eval(floor);
-      if (at_floor.error <= tolerance)
-      {
-        accept(at_floor);
-        lo = floor;
-        e_lo = at_floor.error;
-      }
-    }
-    if (lo < 0.0)
-      return sol;  // even the smallest ball is too coarse here: keep the centre alone
-  }
+  else if (!(start > floor && probe(floor)))
+    return sol;  // even the smallest ball is too coarse here: keep the centre alone
   // Refine between the last good and the first bad radius (to 2%); keep the largest good one.
   for (int it = 0; hi > 0.0 && hi - lo > 0.02 * hi && it < 10; ++it)
   {
@@ -139,19 +122,7 @@ RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d&
     if (e_lo > 0.0 && e_hi > e_lo)
       theta = std::log(tolerance / e_lo) / std::log(e_hi / e_lo);
     theta = std::min(std::max(theta, 0.15), 0.85);
-    const double r = lo * std::pow(hi / lo, theta);
-    const RadiusEvaluation ev = eval(r);
-    if (ev.error <= tolerance)
-    {
-      accept(ev);
-      lo = r;
-      e_lo = ev.error;
-    }
-    else
-    {
-      hi = r;
-      e_hi = ev.error;
-    }
+    probe(lo * std::pow(hi / lo, theta));
   }
   return sol;
 }
