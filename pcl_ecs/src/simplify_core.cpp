@@ -85,7 +85,8 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
   if (cloud.size() <= static_cast<std::size_t>(k))
   {
     std::ostringstream os;
-    os << "only " << cloud.size() << " finite points; the neighbourhood size K = " << k
+    os << "only " << cloud.size() << (cloud.size() == 1 ? " finite point" : " finite points")
+       << "; the neighbourhood size K = " << k
        << " needs at least " << k + 1;
     out.error = os.str();
     return Status::TooFewPoints;
