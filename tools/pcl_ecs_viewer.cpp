@@ -10,6 +10,7 @@
 #include <pcl_ecs/stages/normals.h>
 #include <pcl_ecs/stages/paraboloid_curvature.h>
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -384,7 +385,7 @@ struct App
     }
     runFilter(scene, opt.params);
     annotateSimplified(scene);
-    std::cout << scene.summary << "\n";
+    std::cout << scene.summary << std::endl;
     vis->removePointCloud("simplified");
     draw();
   }
@@ -393,7 +394,10 @@ struct App
   {
     if (!e.keyDown())
       return;
-    const std::string k = e.getKeySym();
+    // Some X servers report the lower-case key symbol with Shift held: upper-case it ourselves.
+    std::string k = e.getKeySym();
+    if (k.size() == 1 && e.isShiftPressed())
+      k[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(k[0])));
     if (k == "h")
     {
       show_help = !show_help;
