@@ -1,0 +1,201 @@
+#include <pcl_ecs/eval/quality_metrics.h>
+
+#include <pcl_ecs/search/nanoflann_search.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include <CGAL/AABB_traits.h>
+#include <CGAL/AABB_tree.h>
+#include <CGAL/AABB_triangle_primitive.h>
+#include <CGAL/Simple_cartesian.h>
+#include <Eigen/Eigenvalues>
+
+namespace pcl_ecs
+{
+namespace eval
+{
+
+namespace
+{
+double percentile(std::vector<double> v, double p)
+{
+  if (v.empty())
+    return 0.0;
+  const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(std::floor(p * (v.size() - 1) + 0.5)));
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+  return v[k];
+}
+
+double mean(const std::vector<double>& v)
+{
+  double s = 0.0;
+  for (double x : v)
+    s += x;
+  return v.empty() ? 0.0 : s / static_cast<double>(v.size());
+}
+
+/// A search over `cloud` in a frame centred at `origin` (float precision for large coordinates).
+struct Index
+{
+  Index(const pcl::PointCloud<pcl::PointXYZ>& cloud, const Eigen::Vector3d& o) : origin(o)
+  {
+    local = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+    for (const auto& p : cloud)
+      local->push_back(toLocal(p.getVector3fMap().cast<double>()));
+    search.setInputCloud(local);
+  }
+  pcl::PointXYZ toLocal(const Eigen::Vector3d& p) const
+  {
+    const Eigen::Vector3d q = p - origin;
+    return pcl::PointXYZ(static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()));
+  }
+  double nearest(const Eigen::Vector3d& p) const
+  {
+    pcl::Indices i;
+    std::vector<float> d2;
+    return search.nearestKSearch(toLocal(p), 1, i, d2) == 1 ? std::sqrt(static_cast<double>(d2[0])) : 0.0;
+  }
+  Eigen::Vector3d origin;
+  pcl::PointCloud<pcl::PointXYZ>::Ptr local;
+  NanoflannSearch search;
+};
+}  // namespace
+
+std::vector<Eigen::Vector3d> sampleSharpEdges(const TriangleMesh& mesh, double angle_deg, double spacing)
+{
+  std::map<std::pair<int, int>, std::vector<int>> faces_of_edge;
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
+    for (int k = 0; k < 3; ++k)
+    {
+      int a = mesh.triangles[f][k], b = mesh.triangles[f][(k + 1) % 3];
+      if (a > b)
+        std::swap(a, b);
+      faces_of_edge[{a, b}].push_back(static_cast<int>(f));
+    }
+  auto normal = [&](int f) {
+    const auto& t = mesh.triangles[static_cast<std::size_t>(f)];
+    return (mesh.vertices[t[1]] - mesh.vertices[t[0]]).cross(mesh.vertices[t[2]] - mesh.vertices[t[0]]).normalized();
+  };
+  const double cos_limit = std::cos(angle_deg * M_PI / 180.0);
+  std::vector<Eigen::Vector3d> samples;
+  for (const auto& [edge, faces] : faces_of_edge)
+  {
+    if (faces.size() != 2)
+      continue;
+    if (normal(faces[0]).dot(normal(faces[1])) >= cos_limit)
+      continue;  // the normals differ by less than the angle: a smooth edge
+    const Eigen::Vector3d a = mesh.vertices[static_cast<std::size_t>(edge.first)];
+    const Eigen::Vector3d b = mesh.vertices[static_cast<std::size_t>(edge.second)];
+    const int n = std::max(1, static_cast<int>(std::ceil((b - a).norm() / spacing)));
+    for (int i = 0; i < n; ++i)  // the far end belongs to the next edge
+      samples.push_back(a + (b - a) * (static_cast<double>(i) / n));
+  }
+  return samples;
+}
+
+bool evaluateQuality(const pcl::PointCloud<pcl::PointXYZ>& original,
+                     const pcl::PointCloud<pcl::PointXYZ>& simplified, const TriangleMesh* mesh,
+                     QualityMetrics& out, double sharp_angle_deg, double edge_spacing)
+{
+  out = QualityMetrics{};
+  if (original.empty() || simplified.empty())
+    return false;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+  for (const auto& p : original)
+  {
+    lo = lo.cwiseMin(p.getVector3fMap().cast<double>());
+    hi = hi.cwiseMax(p.getVector3fMap().cast<double>());
+  }
+  const double L = (hi - lo).norm();
+  if (!(L > 0.0))
+    return false;
+  const Eigen::Vector3d origin = 0.5 * (lo + hi);
+  out.bbox_diagonal = L;
+  out.original_points = original.size();
+  out.simplified_points = simplified.size();
+  const Index simp(simplified, origin), orig(original, origin);
+
+  // Surface deviation and coverage, per original point.
+  std::vector<double> deviation(original.size()), cover(original.size());
+  const int k = static_cast<int>(std::min<std::size_t>(8, simplified.size()));
+#pragma omp parallel for schedule(dynamic, 1024)
+  for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(original.size()); ++i)
+  {
+    const Eigen::Vector3d p = original[static_cast<std::size_t>(i)].getVector3fMap().cast<double>();
+    pcl::Indices idx;
+    std::vector<float> d2;
+    simp.search.nearestKSearch(simp.toLocal(p), k, idx, d2);
+    cover[static_cast<std::size_t>(i)] = std::sqrt(static_cast<double>(d2[0])) / L;
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (const int j : idx)
+      c += (*simp.local)[static_cast<std::size_t>(j)].getVector3fMap().cast<double>();
+    c /= static_cast<double>(idx.size());
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (const int j : idx)
+    {
+      const Eigen::Vector3d q = (*simp.local)[static_cast<std::size_t>(j)].getVector3fMap().cast<double>() - c;
+      cov += q * q.transpose();
+    }
+    double dev = (simp.toLocal(p).getVector3fMap().cast<double>() - c).norm();
+    if (idx.size() >= 3)
+    {
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+      const Eigen::Vector3d n = es.eigenvectors().col(0);
+      dev = std::abs((simp.toLocal(p).getVector3fMap().cast<double>() - c).dot(n));
+    }
+    deviation[static_cast<std::size_t>(i)] = dev / L;
+  }
+  double sq = 0.0;
+  for (double d : deviation)
+    sq += d * d;
+  out.surface_rms = std::sqrt(sq / static_cast<double>(deviation.size()));
+  out.surface_p99 = percentile(deviation, 0.99);
+  out.coverage_mean = mean(cover);
+  out.coverage_max = *std::max_element(cover.begin(), cover.end());
+  double back = 0.0;
+  for (const auto& s : simplified)
+    back = std::max(back, orig.nearest(s.getVector3fMap().cast<double>()) / L);
+  out.hausdorff = std::max(out.coverage_max, back);
+
+  if (mesh && !mesh->triangles.empty())
+  {
+    using K = CGAL::Simple_cartesian<double>;
+    using Triangle = K::Triangle_3;
+    using Primitive = CGAL::AABB_triangle_primitive<K, std::vector<Triangle>::iterator>;
+    using Tree = CGAL::AABB_tree<CGAL::AABB_traits<K, Primitive>>;
+    std::vector<Triangle> tris;
+    tris.reserve(mesh->triangles.size());
+    auto P = [&](int v) {
+      const Eigen::Vector3d q = mesh->vertices[static_cast<std::size_t>(v)] - origin;
+      return K::Point_3(q.x(), q.y(), q.z());
+    };
+    for (const auto& t : mesh->triangles)
+      tris.emplace_back(P(t[0]), P(t[1]), P(t[2]));
+    Tree tree(tris.begin(), tris.end());
+    tree.accelerate_distance_queries();
+    std::vector<double> to_mesh;
+    to_mesh.reserve(simplified.size());
+    for (const auto& s : simplified)
+    {
+      const Eigen::Vector3d q = s.getVector3fMap().cast<double>() - origin;
+      to_mesh.push_back(std::sqrt(tree.squared_distance(K::Point_3(q.x(), q.y(), q.z()))) / L);
+    }
+    out.has_mesh = true;
+    out.mesh_mean = mean(to_mesh);
+    out.mesh_max = *std::max_element(to_mesh.begin(), to_mesh.end());
+    const auto samples = sampleSharpEdges(*mesh, sharp_angle_deg, edge_spacing * L);
+    std::vector<double> edge;
+    edge.reserve(samples.size());
+    for (const auto& e : samples)
+      edge.push_back(simp.nearest(e) / L);
+    out.sharp_edge_samples = samples.size();
+    out.edge_mean = mean(edge);
+    out.edge_p90 = percentile(edge, 0.90);
+  }
+  return true;
+}
+
+}  // namespace eval
+}  // namespace pcl_ecs
