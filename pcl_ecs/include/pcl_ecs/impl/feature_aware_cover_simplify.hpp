@@ -99,10 +99,9 @@ void FeatureAwareCoverSimplify<PointT>::applyFilter(PointCloud& output)
     for (const auto idx : *indices_)
     {
       const PointT& p = (*input_)[idx];
-      if (!input_->is_dense && !pcl::isXYZFinite(p))
+      // Checked whatever is_dense says: a cloud that claims to be dense may not be.
+      if (!pcl::isXYZFinite(p))
         continue;
-      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-        continue;  // a cloud that claims to be dense but is not
       if (params_.use_input_normals && !detail::getNormal(p).allFinite())
         continue;
       used.push_back(static_cast<int>(idx));
