@@ -1,0 +1,156 @@
+// cocone.h — the Cocone surface reconstruction (Amenta, Choi, Dey, Leekha 2002), with boundary
+// detection after Dey and Giesen, as free functions. The Delaunay triangulation comes from CGAL
+// (exact predicates); CGAL stays inside the implementation file.
+//
+// Pipeline (each step timed in CoconeStats):
+//   1. Delaunay triangulation of the distinct finite points.
+//   2. Poles: for a sample inside the convex hull, the farthest circumcentre of its Voronoi cell
+//      (the positive pole) gives the axis v_p; for a hull sample, the sum of the outward normals of
+//      its hull facets does. The negative pole (farthest circumcentre on the other side) gives h_p.
+//   3. Cocone test: a Delaunay triangle is a candidate when its dual Voronoi edge (a segment
+//      between two circumcentres, or a ray along a hull facet's outward normal) meets the cocone of
+//      its vertices: the directions from p whose |cos| with v_p is at most cos(π/2 − θ).
+//   4. Boundaries (optional): a sample is regular when its cocone is thin (r_p / h_p ≤ ρ) and its
+//      axis agrees with its cocone neighbours'; only regular vertices' cocones are tested and a
+//      triangle needs at least one regular vertex, so openings are not closed over.
+//   5. Pruning: triangles at sharp edges (the triangles around an edge leave an angular gap above
+//      3π/2) are removed, and so are dangling triangles (two free edges). A triangle with one free
+//      edge is kept: removing those would erode a noisy surface from every small hole.
+//   6. Extraction: a walk from a hull triangle oriented outwards; across each edge the walk takes
+//      the first triangle met when turning towards the outside, oriented consistently.
+//   7. Clean-up: an edge keeps at most two triangles, a vertex keeps its largest fan of triangles,
+//      so the result is an oriented 2-manifold (possibly with boundary).
+#pragma once
+
+#include <Eigen/Core>
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace pcl_ecs
+{
+namespace surface
+{
+
+using Triangle = std::array<std::uint32_t, 3>;
+
+/** \brief Parameters; the defaults are the authors'. */
+struct CoconeParameters
+{
+  /** θ: the cocone holds the directions within θ of the plane normal to the pole axis, i.e. it is
+   * the complement of the double cone of half-angle π/2 − θ = 3π/8. Radians, in (0, π/2). */
+  double cocone_angle = 0.39269908169872414;  // π/8
+  /** Detect boundary / undersampled samples (Dey-Giesen) so that open surfaces stay open. */
+  bool detect_boundaries = true;
+  /** ρ of the ratio condition r_p / h_p ≤ ρ. */
+  double boundary_ratio = 1.3;
+  /** Normal condition: the pole axes of a sample and of its cocone neighbours make at most this
+   * angle (radians, unoriented). */
+  double boundary_normal_angle = 0.39269908169872414;  // π/8
+  /** Pruning: an edge is sharp when two consecutive triangles around it make an angle above this
+   * (radians). */
+  double sharp_edge_angle = 4.71238898038469;  // 3π/2
+  bool prune = true;
+  /** Boundary loops of at most this many edges are closed by ear clipping after extraction (the
+   * places where the walk met a sliver from two sides, or one sample short); 0 disables it. Real
+   * openings are much longer than this. */
+  std::size_t fill_hole_edges = 8;
+  /** Components (after extraction) with fewer triangles are dropped. */
+  std::size_t min_component_triangles = 1;
+
+  /** \brief Empty when valid, else what is wrong. */
+  std::string validate() const;
+};
+
+/** \brief What happened, step by step. Times in seconds. */
+struct CoconeStats
+{
+  std::size_t input_points = 0;
+  std::size_t non_finite_points = 0;
+  std::size_t duplicate_points = 0;  ///< points at the same position as an earlier one (not used)
+  std::size_t vertices = 0;          ///< distinct points triangulated
+  std::size_t delaunay_cells = 0;    ///< finite tetrahedra
+  std::size_t hull_vertices = 0;
+  std::size_t boundary_samples = 0;  ///< samples that failed the ratio / normal conditions
+  std::size_t candidate_triangles = 0;
+  std::size_t pruned_triangles = 0;
+  std::size_t extracted_triangles = 0;
+  std::size_t cleanup_removed_triangles = 0;
+  std::size_t filled_triangles = 0;  ///< candidates added afterwards to close notches and small holes
+  std::size_t components = 0;
+  std::size_t triangles = 0;       ///< in the output
+  std::size_t used_vertices = 0;   ///< distinct vertices referenced by the output
+  double time_delaunay = 0, time_poles = 0, time_cocone = 0, time_prune = 0, time_extract = 0,
+         time_cleanup = 0, time_total = 0;
+};
+
+/** \brief The result: triangles index the input array (so duplicates and non-finite points are
+ * simply not referenced). `error` is non-empty when nothing could be built. */
+struct CoconeResult
+{
+  std::vector<Triangle> triangles;
+  CoconeStats stats;
+  std::string error;
+  bool ok() const { return error.empty(); }
+};
+
+/** \brief Reconstruct the surface through `points`. Never throws on bad geometry: fewer than four
+ * distinct points, or points spanning no volume (coplanar, collinear), give an empty result with
+ * `error` set. */
+CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points,
+                               const CoconeParameters& params = CoconeParameters());
+
+// ---- building blocks (exposed for tests) -------------------------------------------------------
+
+/** \brief Circumcentre of the tetrahedron abcd; false when it is flat to double precision or the
+ * result is not finite. */
+bool circumcenter(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                  const Eigen::Vector3d& d, Eigen::Vector3d& out);
+
+/** \brief How a Voronoi edge meets the cocone of sample p with unit axis `axis`. */
+struct CoconeHit
+{
+  bool hit = false;
+  /** Largest distance from p of the part of the edge inside the cocone (infinity for a ray that
+   * stays in it); 0 when there is no hit. */
+  double radius = 0;
+};
+
+/** \brief The Voronoi edge from `start` to `end` (a segment) or, when `is_ray`, from `start` along
+ * the direction `end`, against the cocone {y : |cos∠(y − p, axis)| ≤ cos_limit}. */
+CoconeHit coconeIntersect(const Eigen::Vector3d& p, const Eigen::Vector3d& axis, double cos_limit,
+                          const Eigen::Vector3d& start, const Eigen::Vector3d& end, bool is_ray);
+
+/** \brief Topology of a triangle mesh over `num_points` vertices. */
+struct MeshTopology
+{
+  std::size_t triangles = 0;
+  std::size_t used_vertices = 0;
+  std::size_t edges = 0;
+  std::size_t boundary_edges = 0;      ///< edges with one triangle
+  std::size_t nonmanifold_edges = 0;   ///< edges with more than two triangles
+  std::size_t nonmanifold_vertices = 0;///< used vertices whose star is not one disk / half-disk
+  std::size_t boundary_loops = 0;      ///< cycles of boundary edges (components of their graph)
+  std::size_t components = 0;          ///< connected components of triangles (through edges)
+  std::size_t degenerate_triangles = 0;///< triangles with a repeated vertex
+  bool consistently_oriented = true;   ///< every two-triangle edge is used once in each direction
+  long euler_characteristic = 0;       ///< V_used − E + F
+  bool isClosedManifold() const
+  {
+    return triangles > 0 && boundary_edges == 0 && nonmanifold_edges == 0 && nonmanifold_vertices == 0 &&
+           degenerate_triangles == 0 && consistently_oriented;
+  }
+  bool isManifold() const
+  {
+    return nonmanifold_edges == 0 && nonmanifold_vertices == 0 && degenerate_triangles == 0;
+  }
+};
+
+MeshTopology analyzeTopology(std::size_t num_points, const std::vector<Triangle>& triangles);
+
+}  // namespace surface
+}  // namespace pcl_ecs

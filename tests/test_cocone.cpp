@@ -1,0 +1,293 @@
+// Cocone: building blocks on exact cases, then the surfaces of analytic shapes and a real scan.
+#include <pcl_ecs/surface/cocone.h>
+
+#include "synthetic_shapes.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+using pcl_ecs::surface::analyzeTopology;
+using pcl_ecs::surface::CoconeParameters;
+using pcl_ecs::surface::coconeReconstruct;
+using pcl_ecs::surface::MeshTopology;
+using pcl_ecs::surface::Triangle;
+using pcl_ecs_test::Rng;
+
+namespace
+{
+std::vector<Eigen::Vector3d> randomSphere(std::size_t n, double rho, std::uint64_t seed, double noise = 0.0)
+{
+  Rng rng(seed);
+  std::vector<Eigen::Vector3d> pts;
+  while (pts.size() < n)
+  {
+    Eigen::Vector3d d(rng.normal(), rng.normal(), rng.normal());
+    if (d.norm() < 1e-9)
+      continue;
+    d.normalize();
+    pts.push_back((rho + (noise > 0 ? noise * rng.normal() : 0.0)) * d);
+  }
+  return pts;
+}
+
+/** Area-uniform samples of the torus (rejection on the area element R + r cos v). */
+std::vector<Eigen::Vector3d> randomTorus(std::size_t n, double R, double r, std::uint64_t seed)
+{
+  Rng rng(seed);
+  std::vector<Eigen::Vector3d> pts;
+  while (pts.size() < n)
+  {
+    const double u = rng.uniform(0, 2 * M_PI), v = rng.uniform(0, 2 * M_PI);
+    if (rng.uniform() * (R + r) > R + r * std::cos(v))
+      continue;
+    pts.emplace_back((R + r * std::cos(v)) * std::cos(u), (R + r * std::cos(v)) * std::sin(u), r * std::sin(v));
+  }
+  return pts;
+}
+
+MeshTopology topologyOf(const std::vector<Eigen::Vector3d>& pts, const pcl_ecs::surface::CoconeResult& r)
+{
+  return analyzeTopology(pts.size(), r.triangles);
+}
+
+/** Every triangle's normal points away from the origin (outward on a sphere centred there). */
+double outwardFraction(const std::vector<Eigen::Vector3d>& pts, const std::vector<Triangle>& tris)
+{
+  std::size_t out = 0;
+  for (const Triangle& t : tris)
+  {
+    const Eigen::Vector3d n = (pts[t[1]] - pts[t[0]]).cross(pts[t[2]] - pts[t[0]]);
+    const Eigen::Vector3d c = (pts[t[0]] + pts[t[1]] + pts[t[2]]) / 3.0;
+    out += n.dot(c) > 0 ? 1 : 0;
+  }
+  return tris.empty() ? 0.0 : static_cast<double>(out) / static_cast<double>(tris.size());
+}
+}  // namespace
+
+// ---- building blocks -----------------------------------------------------------------------------
+
+TEST(Circumcenter, RegularTetrahedronAndFlat)
+{
+  const Eigen::Vector3d a(1, 1, 1), b(1, -1, -1), c(-1, 1, -1), d(-1, -1, 1);
+  Eigen::Vector3d o;
+  ASSERT_TRUE(pcl_ecs::surface::circumcenter(a, b, c, d, o));
+  EXPECT_NEAR(o.norm(), 0.0, 1e-12);
+  // Translated: the centre moves with it.
+  const Eigen::Vector3d t(3, -2, 5);
+  ASSERT_TRUE(pcl_ecs::surface::circumcenter(a + t, b + t, c + t, d + t, o));
+  EXPECT_NEAR((o - t).norm(), 0.0, 1e-12);
+  // Flat: no centre.
+  EXPECT_FALSE(pcl_ecs::surface::circumcenter(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 0, 0),
+                                              Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(1, 1, 0), o));
+}
+
+TEST(CoconeIntersect, SegmentsAgainstTheBand)
+{
+  using pcl_ecs::surface::coconeIntersect;
+  const Eigen::Vector3d p(0, 0, 0), axis(0, 0, 1);
+  const double k = std::cos(3 * M_PI / 8);  // 0.3827
+  // Both ends above the band (in the upper cone): no hit.
+  EXPECT_FALSE(coconeIntersect(p, axis, k, {0.1, 0, 1}, {-0.1, 0, 2}, false).hit);
+  // Both ends below: no hit.
+  EXPECT_FALSE(coconeIntersect(p, axis, k, {0.1, 0, -1}, {0.2, 0.1, -3}, false).hit);
+  // Opposite sides: hit, even though neither end is in the band.
+  auto h = coconeIntersect(p, axis, k, {0.1, 0, 1}, {0.1, 0, -1}, false);
+  EXPECT_TRUE(h.hit);
+  // The part in the band is where |z| ≤ k·|(0.1, z)|: its farthest point is at the band's edge.
+  const double zb = 0.1 * k / std::sqrt(1 - k * k);
+  EXPECT_NEAR(h.radius, std::sqrt(0.01 + zb * zb), 1e-12);
+  // An end inside the band at distance 2: radius 2.
+  h = coconeIntersect(p, axis, k, {2, 0, 0.1}, {0.1, 0, 1}, false);
+  EXPECT_TRUE(h.hit);
+  EXPECT_NEAR(h.radius, std::sqrt(4.01), 1e-12);
+  // Exactly on the boundary angle (|cos| = k): counts as inside.
+  const double s = std::sqrt(1 - k * k);
+  EXPECT_TRUE(coconeIntersect(p, axis, k, {s, 0, k}, {s, 0, 2}, false).hit);
+  // A ray along the axis from above: no hit; a horizontal ray: hit, unbounded.
+  EXPECT_FALSE(coconeIntersect(p, axis, k, {0, 0, 1}, {0, 0, 1}, true).hit);
+  h = coconeIntersect(p, axis, k, {0, 0, 1}, {1, 0, 0}, true);
+  EXPECT_TRUE(h.hit);
+  EXPECT_TRUE(std::isinf(h.radius));
+  // A ray from below the band going up: crosses it; bounded radius.
+  h = coconeIntersect(p, axis, k, {0.5, 0, -2}, {0, 0, 1}, true);
+  EXPECT_TRUE(h.hit);
+  EXPECT_TRUE(std::isfinite(h.radius));
+  // A ray from below going down: no hit.
+  EXPECT_FALSE(coconeIntersect(p, axis, k, {0.5, 0, -2}, {0, 0, -1}, true).hit);
+}
+
+TEST(Topology, TetrahedronAndOpenFan)
+{
+  // A consistently oriented tetrahedron: closed, χ = 2.
+  std::vector<Triangle> tet = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}};
+  MeshTopology t = analyzeTopology(4, tet);
+  EXPECT_TRUE(t.isClosedManifold());
+  EXPECT_EQ(t.euler_characteristic, 2);
+  EXPECT_EQ(t.components, 1u);
+  // Flip one triangle: no longer consistently oriented.
+  tet[1] = {0, 3, 1};
+  EXPECT_FALSE(analyzeTopology(4, tet).consistently_oriented);
+  // Remove a face: one boundary loop, χ = 1.
+  std::vector<Triangle> open = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}};
+  t = analyzeTopology(4, open);
+  EXPECT_EQ(t.boundary_edges, 3u);
+  EXPECT_EQ(t.boundary_loops, 1u);
+  EXPECT_EQ(t.euler_characteristic, 1);
+  EXPECT_TRUE(t.isManifold());
+  // Two triangles touching at one vertex only: a non-manifold vertex.
+  std::vector<Triangle> bowtie = {{0, 1, 2}, {0, 3, 4}};
+  t = analyzeTopology(5, bowtie);
+  EXPECT_EQ(t.nonmanifold_vertices, 1u);
+  // Three triangles on one edge: a non-manifold edge.
+  std::vector<Triangle> fin = {{0, 1, 2}, {1, 0, 3}, {0, 1, 4}};
+  EXPECT_EQ(analyzeTopology(5, fin).nonmanifold_edges, 1u);
+}
+
+// ---- surfaces ------------------------------------------------------------------------------------
+
+class CoconeSphere : public ::testing::TestWithParam<std::size_t>
+{
+};
+
+TEST_P(CoconeSphere, ClosedOrientedManifoldWithEveryVertex)
+{
+  const std::size_t n = GetParam();
+  const auto pts = randomSphere(n, 1.0, 1000 + n);
+  const auto r = coconeReconstruct(pts);
+  ASSERT_TRUE(r.ok()) << r.error;
+  const MeshTopology t = topologyOf(pts, r);
+  EXPECT_TRUE(t.isClosedManifold()) << "boundary " << t.boundary_edges << " nm edges " << t.nonmanifold_edges
+                                    << " nm vertices " << t.nonmanifold_vertices;
+  EXPECT_EQ(t.used_vertices, n);
+  EXPECT_EQ(t.triangles, 2 * n - 4);
+  EXPECT_EQ(t.components, 1u);
+  EXPECT_EQ(t.euler_characteristic, 2);
+  EXPECT_DOUBLE_EQ(outwardFraction(pts, r.triangles), 1.0);
+}
+INSTANTIATE_TEST_SUITE_P(Sizes, CoconeSphere, ::testing::Values(500, 5000, 20000, 100000));
+
+TEST(Cocone, TorusIsClosedWithGenusOne)
+{
+  const auto pts = randomTorus(20000, 1.0, 0.35, 7);
+  const auto r = coconeReconstruct(pts);
+  ASSERT_TRUE(r.ok()) << r.error;
+  const MeshTopology t = topologyOf(pts, r);
+  EXPECT_TRUE(t.isClosedManifold()) << "boundary " << t.boundary_edges << " nm edges " << t.nonmanifold_edges
+                                    << " nm vertices " << t.nonmanifold_vertices;
+  EXPECT_EQ(t.used_vertices, pts.size());
+  EXPECT_EQ(t.triangles, 2 * pts.size());
+  EXPECT_EQ(t.euler_characteristic, 0);
+}
+
+TEST(Cocone, CappedSphereKeepsItsOpening)
+{
+  auto all = randomSphere(12000, 1.0, 11);
+  std::vector<Eigen::Vector3d> pts;
+  for (const auto& p : all)
+    if (p.z() > -0.5)
+      pts.push_back(p);
+  const auto r = coconeReconstruct(pts);
+  ASSERT_TRUE(r.ok()) << r.error;
+  const MeshTopology t = topologyOf(pts, r);
+  EXPECT_TRUE(t.isManifold()) << "nm edges " << t.nonmanifold_edges << " nm vertices " << t.nonmanifold_vertices;
+  EXPECT_TRUE(t.consistently_oriented);
+  EXPECT_EQ(t.boundary_loops, 1u);
+  EXPECT_EQ(t.euler_characteristic, 1);
+  EXPECT_EQ(t.components, 1u);
+  // Nothing spans the opening: no triangle lies below the cut.
+  for (const Triangle& tri : r.triangles)
+    EXPECT_GT((pts[tri[0]] + pts[tri[1]] + pts[tri[2]]).z() / 3.0, -0.5 - 1e-9);
+  EXPECT_GE(static_cast<double>(t.used_vertices), 0.98 * static_cast<double>(pts.size()));
+}
+
+TEST(Cocone, NoisySphereIsNotEroded)
+{
+  const std::size_t n = 20000;
+  const double spacing = std::sqrt(4 * M_PI / n);
+  const auto pts = randomSphere(n, 1.0, 5, 0.07 * spacing);
+  const auto r = coconeReconstruct(pts);
+  ASSERT_TRUE(r.ok()) << r.error;
+  const MeshTopology t = topologyOf(pts, r);
+  EXPECT_TRUE(t.isManifold());
+  EXPECT_TRUE(t.consistently_oriented);
+  EXPECT_GE(static_cast<double>(t.used_vertices), 0.95 * n);
+}
+
+TEST(Cocone, DegenerateInputGivesAClearError)
+{
+  std::vector<Eigen::Vector3d> few = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  auto r = coconeReconstruct(few);
+  EXPECT_FALSE(r.ok());
+  EXPECT_TRUE(r.triangles.empty());
+  EXPECT_NE(r.error.find("at least 4"), std::string::npos) << r.error;
+
+  std::vector<Eigen::Vector3d> plane;
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 10; ++j)
+      plane.emplace_back(i, j, 0.0);
+  r = coconeReconstruct(plane);
+  EXPECT_FALSE(r.ok());
+  EXPECT_NE(r.error.find("coplanar"), std::string::npos) << r.error;
+
+  std::vector<Eigen::Vector3d> same(50, Eigen::Vector3d(1, 2, 3));
+  r = coconeReconstruct(same);
+  EXPECT_FALSE(r.ok());
+  EXPECT_NE(r.error.find("same position"), std::string::npos) << r.error;
+
+  std::vector<Eigen::Vector3d> line;
+  for (int i = 0; i < 10; ++i)
+    line.emplace_back(i, 2 * i, 3 * i);
+  r = coconeReconstruct(line);
+  EXPECT_FALSE(r.ok());
+  EXPECT_NE(r.error.find("collinear"), std::string::npos) << r.error;
+
+  std::vector<Eigen::Vector3d> nan(10, Eigen::Vector3d(NAN, 0, 0));
+  r = coconeReconstruct(nan);
+  EXPECT_FALSE(r.ok());
+  EXPECT_EQ(r.stats.non_finite_points, 10u);
+
+  CoconeParameters bad;
+  bad.cocone_angle = 2.0;
+  r = coconeReconstruct(randomSphere(100, 1.0, 1), bad);
+  EXPECT_FALSE(r.ok());
+  EXPECT_NE(r.error.find("cocone angle"), std::string::npos) << r.error;
+}
+
+TEST(Cocone, DuplicatesAreIgnored)
+{
+  auto pts = randomSphere(2000, 1.0, 3);
+  const std::size_t n = pts.size();
+  for (std::size_t i = 0; i < 100; ++i)
+    pts.push_back(pts[i * 7]);
+  const auto r = coconeReconstruct(pts);
+  ASSERT_TRUE(r.ok()) << r.error;
+  EXPECT_EQ(r.stats.duplicate_points, 100u);
+  const MeshTopology t = topologyOf(pts, r);
+  EXPECT_TRUE(t.isClosedManifold());
+  EXPECT_EQ(t.used_vertices, n);
+  EXPECT_EQ(t.triangles, 2 * n - 4);
+  for (const Triangle& tri : r.triangles)
+    for (auto x : tri)
+      EXPECT_LT(x, n);  // the first copy is the one used
+}
+
+TEST(Cocone, DeterministicWhateverTheThreadCount)
+{
+  const auto pts = randomTorus(5000, 1.0, 0.4, 9);
+  const auto a = coconeReconstruct(pts), b = coconeReconstruct(pts);
+  EXPECT_EQ(a.triangles, b.triangles);
+#ifdef _OPENMP
+  const int before = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const auto one = coconeReconstruct(pts);
+  omp_set_num_threads(4);
+  const auto four = coconeReconstruct(pts);
+  omp_set_num_threads(before);
+  EXPECT_EQ(a.triangles, one.triangles);
+  EXPECT_EQ(a.triangles, four.triangles);
+#endif
+}
