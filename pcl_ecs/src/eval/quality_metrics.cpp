@@ -197,5 +197,82 @@ bool evaluateQuality(const pcl::PointCloud<pcl::PointXYZ>& original,
   return true;
 }
 
+namespace
+{
+using MK = CGAL::Simple_cartesian<double>;
+using MTri = MK::Triangle_3;
+using MPrimitive = CGAL::AABB_triangle_primitive<MK, std::vector<MTri>::iterator>;
+using MTree = CGAL::AABB_tree<CGAL::AABB_traits<MK, MPrimitive>>;
+
+std::vector<MTri> cgalTriangles(const TriangleMesh& m, const Eigen::Vector3d& origin)
+{
+  std::vector<MTri> tris;
+  tris.reserve(m.triangles.size());
+  auto P = [&](int v) {
+    const Eigen::Vector3d q = m.vertices[static_cast<std::size_t>(v)] - origin;
+    return MK::Point_3(q.x(), q.y(), q.z());
+  };
+  for (const auto& t : m.triangles)
+    tris.emplace_back(P(t[0]), P(t[1]), P(t[2]));
+  return tris;
+}
+
+std::vector<Eigen::Vector3d> surfaceSamples(const TriangleMesh& m, int per_triangle)
+{
+  std::vector<Eigen::Vector3d> s(m.vertices.begin(), m.vertices.end());
+  // Fixed barycentric positions: the centroid, then points towards each vertex.
+  static const double bary[][3] = {{1.0 / 3, 1.0 / 3, 1.0 / 3}, {2.0 / 3, 1.0 / 6, 1.0 / 6},
+                                   {1.0 / 6, 2.0 / 3, 1.0 / 6}, {1.0 / 6, 1.0 / 6, 2.0 / 3}};
+  const int k = std::max(0, std::min(per_triangle, 4));
+  for (const auto& t : m.triangles)
+    for (int j = 0; j < k; ++j)
+      s.push_back(bary[j][0] * m.vertices[static_cast<std::size_t>(t[0])] +
+                  bary[j][1] * m.vertices[static_cast<std::size_t>(t[1])] +
+                  bary[j][2] * m.vertices[static_cast<std::size_t>(t[2])]);
+  return s;
+}
+
+void oneWay(const std::vector<Eigen::Vector3d>& samples, const MTree& tree, const Eigen::Vector3d& origin,
+            double L, double& mean_out, double& max_out)
+{
+  std::vector<double> d(samples.size());
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(samples.size()); ++i)
+  {
+    const Eigen::Vector3d q = samples[static_cast<std::size_t>(i)] - origin;
+    d[static_cast<std::size_t>(i)] = std::sqrt(tree.squared_distance(MK::Point_3(q.x(), q.y(), q.z()))) / L;
+  }
+  mean_out = mean(d);
+  max_out = d.empty() ? 0.0 : *std::max_element(d.begin(), d.end());
+}
+}  // namespace
+
+bool meshDistance(const TriangleMesh& mesh, const TriangleMesh& reference, MeshDistance& out, int samples_per_triangle)
+{
+  out = MeshDistance{};
+  if (mesh.triangles.empty() || reference.triangles.empty())
+    return false;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+  for (const auto& v : reference.vertices)
+  {
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  const double L = (hi - lo).norm();
+  if (!(L > 0))
+    return false;
+  const Eigen::Vector3d origin = 0.5 * (lo + hi);
+  out.bbox_diagonal = L;
+  auto ref_tris = cgalTriangles(reference, origin);
+  auto mesh_tris = cgalTriangles(mesh, origin);
+  MTree ref_tree(ref_tris.begin(), ref_tris.end()), mesh_tree(mesh_tris.begin(), mesh_tris.end());
+  ref_tree.accelerate_distance_queries();
+  mesh_tree.accelerate_distance_queries();
+  oneWay(surfaceSamples(mesh, samples_per_triangle), ref_tree, origin, L, out.to_reference_mean, out.to_reference_max);
+  oneWay(surfaceSamples(reference, samples_per_triangle), mesh_tree, origin, L, out.from_reference_mean,
+         out.from_reference_max);
+  return true;
+}
+
 }  // namespace eval
 }  // namespace pcl_ecs

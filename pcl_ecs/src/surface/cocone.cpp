@@ -150,6 +150,8 @@ std::string CoconeParameters::validate() const
     why << "boundary ratio must be a positive number, got " << boundary_ratio;
   else if (!(boundary_normal_angle > 0 && boundary_normal_angle < kPi / 2))
     why << "boundary normal angle must be in (0, pi/2) radians, got " << boundary_normal_angle;
+  else if (!(max_edge_ratio >= 0) || !std::isfinite(max_edge_ratio))
+    why << "max edge ratio must be 0 (off) or positive, got " << max_edge_ratio;
   else if (!(sharp_edge_angle > kPi && sharp_edge_angle <= 2 * kPi))
     why << "sharp edge angle must be in (pi, 2 pi] radians, got " << sharp_edge_angle;
   return why.str();
@@ -479,6 +481,7 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
       cell_n[c->info()][k] = c->neighbor(k)->info();
     }
   dt.clear();  // the flat arrays hold all that is needed from here on
+
   auto infiniteIndex = [&](std::uint32_t c) {
     for (int k = 0; k < 4; ++k)
       if (cell_v[c][k] == kNone)
@@ -781,6 +784,52 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
     if (ok && any_regular)
       cand.push_back(f.v);
   }
+  // Local sample spacing: the median length of the candidate edges at a vertex (robust to the
+  // clumps of random sampling, which make nearest-neighbour distances tiny).
+  std::vector<double> spacing(n, 0.0);
+  {
+    std::vector<std::uint32_t> off(n + 1, 0);
+    for (const Triangle& t : cand)
+      for (std::uint32_t x : t)
+        off[x + 1] += 2;
+    for (std::size_t i = 0; i < n; ++i)
+      off[i + 1] += off[i];
+    std::vector<float> len(off.back());
+    std::vector<std::uint32_t> pos(off.begin(), off.end() - 1);
+    for (const Triangle& t : cand)
+      for (int k = 0; k < 3; ++k)
+      {
+        const auto d = static_cast<float>((points[t[k]] - points[t[(k + 1) % 3]]).norm());
+        len[pos[t[k]]++] = d;
+        len[pos[t[(k + 1) % 3]]++] = d;
+      }
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      if (off[i + 1] == off[i])
+        continue;
+      auto first = len.begin() + off[i], last = len.begin() + off[i + 1];
+      auto mid = first + (last - first) / 2;
+      std::nth_element(first, mid, last);
+      spacing[i] = *mid;
+    }
+  }
+  if (params.max_edge_ratio > 0)
+  {
+    // Undersampled spot: an edge far longer than the sample spacing at all three vertices spans a
+    // gap in the sampling, not the surface.
+    std::size_t kept = 0;
+    for (const Triangle& t : cand)
+    {
+      const double local = std::max({spacing[t[0]], spacing[t[1]], spacing[t[2]]});
+      const double longest = std::max({(points[t[0]] - points[t[1]]).norm(), (points[t[1]] - points[t[2]]).norm(),
+                                       (points[t[2]] - points[t[0]]).norm()});
+      if (longest > params.max_edge_ratio * local)
+        ++st.gap_triangles;
+      else
+        cand[kept++] = t;
+    }
+    cand.resize(kept);
+  }
   facets.clear();
   facets.shrink_to_fit();
   // Canonical order (and vertex order within a triangle) so that what follows does not depend on
@@ -795,51 +844,88 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
   t0 = Clock::now();
   const EdgeIndex edges(cand);
   std::vector<char> alive(cand.size(), 1);
-  auto liveApexes = [&](std::uint32_t a, std::uint32_t b) {
-    std::vector<std::uint32_t> apexes;
-    auto range = edges.at(a, b);
-    for (auto it = range.first; it != range.second; ++it)
-      if (alive[it->second])
-        apexes.push_back(apex(cand[it->second], a, b));
-    return apexes;
-  };
   if (params.prune)
   {
-    std::deque<std::uint32_t> work(cand.size());
-    std::iota(work.begin(), work.end(), 0u);
-    std::vector<char> queued(cand.size(), 1);
+    // An edge is sharp when its live triangles leave an angular gap above sharp_edge_angle. Removing
+    // triangles only widens gaps and frees edges, so a triangle once condemned stays condemned: each
+    // is removed at most once, and only the neighbours of a removed triangle are looked at again.
+    const double cos_open = std::cos(2 * kPi - params.sharp_edge_angle);
+    std::vector<std::uint32_t> apexes, tris;
+    auto liveAt = [&](std::uint32_t a, std::uint32_t b) {
+      apexes.clear();
+      tris.clear();
+      auto range = edges.at(a, b);
+      for (auto it = range.first; it != range.second; ++it)
+        if (alive[it->second])
+        {
+          tris.push_back(it->second);
+          apexes.push_back(apex(cand[it->second], a, b));
+        }
+    };
+    auto sharp = [&](std::uint32_t a, std::uint32_t b) {
+      if (apexes.size() == 2)
+      {
+        // Two half-planes at unsigned angle φ leave gaps φ and 2π − φ.
+        const Eigen::Vector3d e = (points[b] - points[a]).normalized();
+        Eigen::Vector3d w1 = points[apexes[0]] - points[a], w2 = points[apexes[1]] - points[a];
+        w1 -= w1.dot(e) * e;
+        w2 -= w2.dot(e) * e;
+        return w1.dot(w2) > cos_open * w1.norm() * w2.norm();
+      }
+      return largestGap(points, a, b, apexes) > params.sharp_edge_angle;
+    };
+    std::vector<std::uint8_t> free_edges(cand.size(), 0);
+    std::vector<char> queued(cand.size(), 0);
+    std::deque<std::uint32_t> work;
+    auto condemn = [&](std::uint32_t t) {
+      if (alive[t] && !queued[t])
+      {
+        queued[t] = 1;
+        work.push_back(t);
+      }
+    };
+    const auto& pairs = edges.pairs();
+    for (std::size_t i = 0; i < pairs.size();)
+    {
+      std::size_t j = i;
+      while (j < pairs.size() && pairs[j].first == pairs[i].first)
+        ++j;
+      const auto a = static_cast<std::uint32_t>(pairs[i].first >> 32);
+      const auto b = static_cast<std::uint32_t>(pairs[i].first & 0xffffffffu);
+      if (j - i == 1)
+        ++free_edges[pairs[i].second];
+      else
+      {
+        liveAt(a, b);
+        if (sharp(a, b))
+          for (std::size_t k = i; k < j; ++k)
+            condemn(pairs[k].second);
+      }
+      i = j;
+    }
+    for (std::uint32_t t = 0; t < cand.size(); ++t)
+      if (free_edges[t] >= 2)
+        condemn(t);
     while (!work.empty())
     {
       const std::uint32_t t = work.front();
       work.pop_front();
-      queued[t] = 0;
       if (!alive[t])
         continue;
-      int free_edges = 0;
-      bool sharp = false;
-      for (int k = 0; k < 3 && !sharp; ++k)
+      alive[t] = 0;
+      ++st.pruned_triangles;
+      for (int k = 0; k < 3; ++k)
       {
         const std::uint32_t a = cand[t][k], b = cand[t][(k + 1) % 3];
-        const std::vector<std::uint32_t> ap = liveApexes(a, b);
-        if (ap.size() == 1)
-          ++free_edges;
-        else if (largestGap(points, a, b, ap) > params.sharp_edge_angle)
-          sharp = true;
-      }
-      if (sharp || free_edges >= 2)
-      {
-        alive[t] = 0;
-        ++st.pruned_triangles;
-        for (int k = 0; k < 3; ++k)
+        liveAt(a, b);
+        if (tris.size() == 1)
         {
-          auto range = edges.at(cand[t][k], cand[t][(k + 1) % 3]);
-          for (auto it = range.first; it != range.second; ++it)
-            if (alive[it->second] && !queued[it->second])
-            {
-              queued[it->second] = 1;
-              work.push_back(it->second);
-            }
+          if (++free_edges[tris[0]] >= 2)
+            condemn(tris[0]);
         }
+        else if (tris.size() >= 2 && sharp(a, b))
+          for (std::uint32_t s2 : std::vector<std::uint32_t>(tris))
+            condemn(s2);
       }
     }
   }
@@ -1020,10 +1106,9 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
       i = j;
     }
   }
-  // Vertex fans, repeated until stable.
-  for (int round = 0; round < 100; ++round)
+  // Vertex fans: a vertex keeps its largest fan (triangles connected through edges at it). Removing
+  // a fan can split a neighbour's star, so the neighbours are looked at again (a work list).
   {
-    bool changed = false;
     std::vector<std::uint32_t> off(n + 1, 0);
     for (std::uint32_t t = 0; t < out.size(); ++t)
       if (keep[t])
@@ -1037,44 +1122,69 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
       if (keep[t])
         for (std::uint32_t x : out[t])
           star[pos[x]++] = t;
+    std::deque<std::uint32_t> work;
+    std::vector<char> queued(n, 0);
     for (std::uint32_t v = 0; v < n; ++v)
+      if (off[v + 1] - off[v] > 1)
+      {
+        work.push_back(v);
+        queued[v] = 1;
+      }
+    std::vector<std::uint32_t> local, parent, size;
+    while (!work.empty())
     {
-      const std::uint32_t s = off[v], e = off[v + 1];
-      if (e - s <= 1)
+      const std::uint32_t v = work.front();
+      work.pop_front();
+      queued[v] = 0;
+      local.clear();
+      for (std::uint32_t k = off[v]; k < off[v + 1]; ++k)
+        if (keep[star[k]])
+          local.push_back(star[k]);
+      const auto m = static_cast<std::uint32_t>(local.size());
+      if (m <= 1)
         continue;
-      const std::uint32_t m = e - s;
-      UnionFind uf(m);
+      parent.resize(m);
+      std::iota(parent.begin(), parent.end(), 0u);
+      auto find = [&](std::uint32_t x) {
+        while (parent[x] != x)
+          x = parent[x] = parent[parent[x]];
+        return x;
+      };
       for (std::uint32_t i = 0; i < m; ++i)
         for (std::uint32_t j = i + 1; j < m; ++j)
         {
-          if (!keep[star[s + i]] || !keep[star[s + j]])
-            continue;
-          const Triangle& ti = out[star[s + i]];
-          const Triangle& tj = out[star[s + j]];
-          int shared = 0;
+          const Triangle& ti = out[local[i]];
+          const Triangle& tj = out[local[j]];
+          bool shared = false;
           for (std::uint32_t x : ti)
             if (x != v && (x == tj[0] || x == tj[1] || x == tj[2]))
-              ++shared;
-          if (shared > 0)
-            uf.unite(i, j);
+              shared = true;
+          if (shared)
+          {
+            const std::uint32_t ri = find(i), rj = find(j);
+            if (ri != rj)
+              parent[std::max(ri, rj)] = std::min(ri, rj);
+          }
         }
-      std::vector<std::uint32_t> size(m, 0);
+      size.assign(m, 0);
       for (std::uint32_t i = 0; i < m; ++i)
-        if (keep[star[s + i]])
-          ++size[uf.find(i)];
-      std::uint32_t best = kNone;
-      for (std::uint32_t i = 0; i < m; ++i)
-        if (size[i] > 0 && (best == kNone || size[i] > size[best]))
+        ++size[find(i)];
+      std::uint32_t best = 0;
+      for (std::uint32_t i = 1; i < m; ++i)
+        if (size[i] > size[best])
           best = i;
       for (std::uint32_t i = 0; i < m; ++i)
-        if (keep[star[s + i]] && uf.find(i) != best)
+        if (find(i) != best)
         {
-          keep[star[s + i]] = 0;
-          changed = true;
+          keep[local[i]] = 0;
+          for (std::uint32_t x : out[local[i]])
+            if (x != v && !queued[x])
+            {
+              queued[x] = 1;
+              work.push_back(x);
+            }
         }
     }
-    if (!changed)
-      break;
   }
   // Close notches and small holes with candidate triangles: a candidate whose orientation matches
   // at least two current boundary edges (and whose third edge is free or a matching boundary edge)
@@ -1103,12 +1213,17 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
     for (std::uint32_t i = 0; i < out.size(); ++i)
       if (keep[i])
         addEdges(out[i]);
-    for (int round = 0; round < 20; ++round)
+    // First every candidate, then only those next to a triangle just added.
+    std::vector<std::uint32_t> frontier;
+    for (std::uint32_t t = 0; t < cand.size(); ++t)
+      if (alive[t] && !in_mesh[t])
+        frontier.push_back(t);
+    while (!frontier.empty())
     {
-      std::size_t added = 0;
-      for (std::uint32_t t = 0; t < cand.size(); ++t)
+      std::vector<std::uint32_t> next_frontier;
+      for (std::uint32_t t : frontier)
       {
-        if (!alive[t] || in_mesh[t])
+        if (in_mesh[t])
           continue;
         for (int flip = 0; flip < 2; ++flip)
         {
@@ -1133,14 +1248,21 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
             out.push_back(tri);
             keep.push_back(1);
             addEdges(tri);
-            ++added;
             ++st.filled_triangles;
+            for (int k = 0; k < 3; ++k)
+            {
+              auto range = edges.at(tri[k], tri[(k + 1) % 3]);
+              for (auto it = range.first; it != range.second; ++it)
+                if (alive[it->second] && !in_mesh[it->second])
+                  next_frontier.push_back(it->second);
+            }
             break;
           }
         }
       }
-      if (added == 0)
-        break;
+      std::sort(next_frontier.begin(), next_frontier.end());
+      next_frontier.erase(std::unique(next_frontier.begin(), next_frontier.end()), next_frontier.end());
+      frontier.swap(next_frontier);
     }
   }
   // Small holes (boundary loops of at most fill_hole_edges edges) are closed by ear clipping,
@@ -1198,6 +1320,7 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
       if (!closed || loop.size() < 3 || loop.size() > params.fill_hole_edges)
         continue;
       std::vector<Triangle> added;
+      auto cur_of = [&](std::size_t i) { return loop[i]; };
       while (loop.size() > 3)
       {
         double best = std::numeric_limits<double>::infinity();
@@ -1208,6 +1331,12 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
           if (use.count(edgeKey(prev, next)))
             continue;
           const double len = (points[prev] - points[next]).squaredNorm();
+          if (params.max_edge_ratio > 0)
+          {
+            const double local = std::max({spacing[prev], spacing[cur_of(i)], spacing[next]});
+            if (len > params.max_edge_ratio * params.max_edge_ratio * local * local)
+              continue;  // the hole is a gap in the sampling, not a notch
+          }
           if (len < best)
           {
             best = len;

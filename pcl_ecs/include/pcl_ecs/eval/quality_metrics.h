@@ -50,5 +50,21 @@ bool evaluateQuality(const pcl::PointCloud<pcl::PointXYZ>& original,
  * by more than `angle_deg` (edges with one face are not sharp: they are borders). */
 std::vector<Eigen::Vector3d> sampleSharpEdges(const TriangleMesh& mesh, double angle_deg, double spacing);
 
+/** \brief Distance between two triangle meshes, as fractions of L (the diagonal of the bounding
+ * box of `reference`). Each surface is sampled (its vertices, plus `samples_per_triangle` points at
+ * fixed barycentric positions in every triangle) and the samples' distances to the other surface
+ * are measured with an AABB tree. */
+struct MeshDistance
+{
+  double bbox_diagonal = 0;
+  double to_reference_mean = 0, to_reference_max = 0;  ///< from `mesh` to `reference`
+  double from_reference_mean = 0, from_reference_max = 0;  ///< from `reference` to `mesh`
+  double hausdorff() const { return to_reference_max > from_reference_max ? to_reference_max : from_reference_max; }
+};
+
+/** \brief See MeshDistance; false when either mesh has no triangle. */
+bool meshDistance(const TriangleMesh& mesh, const TriangleMesh& reference, MeshDistance& out,
+                  int samples_per_triangle = 3);
+
 }  // namespace eval
 }  // namespace pcl_ecs

@@ -55,6 +55,11 @@ struct CoconeParameters
    * (radians). */
   double sharp_edge_angle = 4.71238898038469;  // 3π/2
   bool prune = true;
+  /** Undersampled spots: a candidate triangle whose longest edge exceeds this multiple of the
+   * largest local spacing among its vertices (the median length of the candidate edges at a vertex)
+   * spans a gap in the sampling and is
+   * refused (the gap stays a hole). 0 disables the guard. */
+  double max_edge_ratio = 5.0;
   /** Boundary loops of at most this many edges are closed by ear clipping after extraction (the
    * places where the walk met a sliver from two sides, or one sample short); 0 disables it. Real
    * openings are much longer than this. */
@@ -76,6 +81,7 @@ struct CoconeStats
   std::size_t delaunay_cells = 0;    ///< finite tetrahedra
   std::size_t hull_vertices = 0;
   std::size_t boundary_samples = 0;  ///< samples that failed the ratio / normal conditions
+  std::size_t gap_triangles = 0;     ///< cocone triangles refused as spanning a gap (max_edge_ratio)
   std::size_t candidate_triangles = 0;
   std::size_t pruned_triangles = 0;
   std::size_t extracted_triangles = 0;
