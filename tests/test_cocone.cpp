@@ -291,3 +291,131 @@ TEST(Cocone, DeterministicWhateverTheThreadCount)
   EXPECT_EQ(a.triangles, four.triangles);
 #endif
 }
+
+// ---- the PCL surface class -----------------------------------------------------------------------
+
+#include <pcl_ecs/surface/cocone_reconstruction.h>
+
+#include <pcl/conversions.h>
+
+TEST(CoconePcl, IndicesReferToTheFullCloudAndTheCloudIsCopied)
+{
+  // A sphere of 3000 points; the mesh is asked for the odd ones only, plus junk at even indices.
+  const auto sphere = randomSphere(3000, 2.0, 21);
+  auto cloud = std::make_shared<pcl::PointCloud<pcl::PointXYZRGB>>();
+  auto indices = std::make_shared<pcl::Indices>();
+  for (std::size_t i = 0; i < sphere.size(); ++i)
+  {
+    pcl::PointXYZRGB junk;
+    junk.x = junk.y = junk.z = 100.0f;  // far away: would wreck the mesh if used
+    cloud->push_back(junk);
+    pcl::PointXYZRGB p;
+    p.x = static_cast<float>(sphere[i].x());
+    p.y = static_cast<float>(sphere[i].y());
+    p.z = static_cast<float>(sphere[i].z());
+    p.r = 200;
+    cloud->push_back(p);
+    indices->push_back(static_cast<pcl::index_t>(2 * i + 1));
+  }
+  pcl_ecs::Cocone<pcl::PointXYZRGB> cocone;
+  cocone.setInputCloud(cloud);
+  cocone.setIndices(indices);
+  pcl::PolygonMesh mesh;
+  cocone.reconstruct(mesh);
+  ASSERT_TRUE(cocone.getLastError().empty()) << cocone.getLastError();
+  EXPECT_EQ(mesh.cloud.width * mesh.cloud.height, cloud->size());
+  std::vector<Triangle> tris;
+  for (const auto& poly : mesh.polygons)
+  {
+    ASSERT_EQ(poly.vertices.size(), 3u);
+    for (auto v : poly.vertices)
+      EXPECT_EQ(v % 2, 1u) << "a point outside the indices was used";
+    tris.push_back({static_cast<std::uint32_t>(poly.vertices[0]), static_cast<std::uint32_t>(poly.vertices[1]),
+                    static_cast<std::uint32_t>(poly.vertices[2])});
+  }
+  const MeshTopology t = analyzeTopology(cloud->size(), tris);
+  EXPECT_TRUE(t.isClosedManifold());
+  EXPECT_EQ(t.used_vertices, sphere.size());
+  EXPECT_EQ(t.triangles, 2 * sphere.size() - 4);
+  EXPECT_EQ(cocone.getStats().triangles, t.triangles);
+}
+
+TEST(CoconePcl, DegenerateInputGivesAnEmptyMesh)
+{
+  auto cloud = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  for (int i = 0; i < 20; ++i)
+    cloud->push_back(pcl::PointXYZ(static_cast<float>(i), static_cast<float>(i % 5), 0.0f));  // coplanar
+  pcl_ecs::Cocone<pcl::PointXYZ> cocone;
+  cocone.setInputCloud(cloud);
+  pcl::PolygonMesh mesh;
+  mesh.polygons.resize(3);  // stale content must go
+  cocone.reconstruct(mesh);
+  EXPECT_TRUE(mesh.polygons.empty());
+  EXPECT_NE(cocone.getLastError().find("coplanar"), std::string::npos);
+
+  // An invalid parameter is refused the same way.
+  const auto sphere = randomSphere(200, 1.0, 2);
+  cloud->clear();
+  for (const auto& p : sphere)
+    cloud->push_back(pcl_ecs_test::toPoint(p));
+  cocone.setCoconeAngle(-1.0);
+  cocone.reconstruct(mesh);
+  EXPECT_TRUE(mesh.polygons.empty());
+  EXPECT_NE(cocone.getLastError().find("cocone angle"), std::string::npos);
+}
+
+// ---- a real scan ---------------------------------------------------------------------------------
+
+#include <pcl_ecs/eval/quality_metrics.h>
+
+#include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
+
+TEST(CoconeScan, BunnyIsAManifoldCloseToTheReference)
+{
+  const std::string cloud_path = pcl_ecs_test::sharedData("bunny.pcd");
+  const std::string mesh_path = pcl_ecs_test::sharedData("bunny_mesh.ply");
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  pcl::PolygonMesh ref_pm;
+  if (pcl::io::loadPCDFile(cloud_path, cloud) != 0 || pcl::io::loadPLYFile(mesh_path, ref_pm) != 0)
+    GTEST_SKIP() << "shared data missing";
+  std::vector<Eigen::Vector3d> pts;
+  for (const auto& p : cloud)
+    pts.emplace_back(p.x, p.y, p.z);
+  const auto r = coconeReconstruct(pts);
+  ASSERT_TRUE(r.ok()) << r.error;
+  const MeshTopology t = analyzeTopology(pts.size(), r.triangles);
+  EXPECT_TRUE(t.isManifold());
+  EXPECT_TRUE(t.consistently_oriented);
+  EXPECT_EQ(t.nonmanifold_edges, 0u);
+  // One surface, and at most a couple of small patches cut off by the loops at the base (one of
+  // 64 triangles at the time of writing).
+  EXPECT_LE(t.components, 3u);
+  // The merged scans leave the bunny's base open: a handful of loops, bounded.
+  RecordProperty("boundary_loops", static_cast<int>(t.boundary_loops));
+  std::printf("bunny: %zu triangles, %zu boundary loops, %zu used of %zu points\n", t.triangles, t.boundary_loops,
+              t.used_vertices, pts.size());
+  EXPECT_LE(t.boundary_loops, 15u);
+  EXPECT_GE(static_cast<double>(t.used_vertices), 0.999 * static_cast<double>(pts.size()));
+
+  pcl::PointCloud<pcl::PointXYZ> rv;
+  pcl::fromPCLPointCloud2(ref_pm.cloud, rv);
+  pcl_ecs::eval::TriangleMesh ref, mine;
+  for (const auto& p : rv)
+    ref.vertices.emplace_back(p.x, p.y, p.z);
+  for (const auto& poly : ref_pm.polygons)
+    ref.triangles.emplace_back(poly.vertices[0], poly.vertices[1], poly.vertices[2]);
+  mine.vertices = pts;
+  for (const Triangle& tri : r.triangles)
+    mine.triangles.emplace_back(tri[0], tri[1], tri[2]);
+  pcl_ecs::eval::MeshDistance d;
+  ASSERT_TRUE(pcl_ecs::eval::meshDistance(mine, ref, d));
+  std::printf("bunny: mesh to reference mean %.3g L max %.3g L; reference to mesh mean %.3g L max %.3g L\n",
+              d.to_reference_mean, d.to_reference_max, d.from_reference_mean, d.from_reference_max);
+  // Stated bounds (relative to L): the surface lies on the reference (mean 1e-4); the largest
+  // deviations are the triangles that close the reference's own holes at the base.
+  EXPECT_LT(d.to_reference_mean, 1e-4);
+  EXPECT_LT(d.from_reference_mean, 1e-4);
+  EXPECT_LT(d.to_reference_max, 0.04);
+  EXPECT_LT(d.from_reference_max, 0.01);
+}

@@ -1,6 +1,7 @@
 // pcd_simplify — simplify a scan with the paper's method: feature points kept, everything else
 // covered by error-bounded balls, one optimised point per ball.
 #include "common/cli.h"
+#include "common/mesh_cli.h"
 #include "common/point_dispatch.h"
 
 #include <pcl_ecs/feature_aware_cover_simplify.h>
@@ -51,6 +52,8 @@ Output:
   --compressed        write binary_compressed PCD
   --features FILE     also write the feature points to FILE (.pcd or .ply)
   --labels            add a field 'ecs_label' to each output point: 1 feature, 2 representative
+  --mesh FILE         also triangulate the simplified cloud with Cocone and write the mesh to
+                      FILE (.ply, .obj or .vtk); the Cocone flags below tune it
   --stats FILE.json   write what was done: parameters, counts, time per stage, largest error,
                       input and output bounding boxes
   --quiet             print nothing but errors
@@ -72,12 +75,14 @@ Examples:
   pcd_simplify scan.ply small.ply --target-ratio 0.05  # keep about 5% of the points
   pcd_simplify part.pcd out.pcd --alpha 4 --features edges.pcd --labels --stats run.json
   pcd_simplify kinect.pcd out.pcd --compressed         # organised RGB in, unorganised RGB out
+  pcd_simplify bunny.pcd small.pcd --mesh small.ply     # simplify, then mesh the result
 )";
 
 struct Options
 {
-  std::string input, output, features, stats;
+  std::string input, output, features, stats, mesh;
   Parameters params;
+  surface::CoconeParameters cocone;
   double target_ratio = 0.0;
   io::Encoding encoding = io::Encoding::Binary;
   bool labels = false, quiet = false, verbose = false;
@@ -105,7 +110,7 @@ Options parseArgs(int argc, char** argv, bool& done)
     };
     if (a == "--help" || a == "-h")
     {
-      std::cout << kUsage << filterFlagsHelp() << "\n" << kOptions;
+      std::cout << kUsage << filterFlagsHelp() << "\n" << kOptions << "\n" << coconeFlagsHelp();
       done = true;
       return o;
     }
@@ -116,6 +121,8 @@ Options parseArgs(int argc, char** argv, bool& done)
       return o;
     }
     if (applyFilterFlag(a, value, o.params))
+      continue;
+    if (applyCoconeFlag(a, value, o.cocone))
       continue;
     if (a == "--target-ratio")
     {
@@ -131,6 +138,8 @@ Options parseArgs(int argc, char** argv, bool& done)
       o.features = value();
     else if (a == "--labels")
       o.labels = true;
+    else if (a == "--mesh")
+      o.mesh = value();
     else if (a == "--stats")
       o.stats = value();
     else if (a == "--quiet" || a == "-q")
@@ -160,11 +169,22 @@ Options parseArgs(int argc, char** argv, bool& done)
     if (f != io::Format::Pcd && f != io::Format::Ply)
       throw UsageError(*out + ": output must be .pcd or .ply");
   }
+  if (!o.mesh.empty())
+  {
+    try
+    {
+      surface::meshFormatFromPath(o.mesh);
+    }
+    catch (const std::invalid_argument& e)
+    {
+      throw UsageError(std::string("--mesh: ") + e.what());
+    }
+  }
   if (!o.stats.empty() && fs::path(o.stats).extension() != ".json")
     throw UsageError(o.stats + ": --stats writes JSON; give it a .json name");
   // Refuse to overwrite the input with the output (or the features / stats).
   std::error_code ec;
-  for (const std::string* out : {&o.output, &o.features, &o.stats})
+  for (const std::string* out : {&o.output, &o.features, &o.stats, &o.mesh})
   {
     if (out->empty())
       continue;
@@ -327,7 +347,7 @@ int runTool(int argc, char** argv)
   pcl::console::setVerbosityLevel(o.verbose ? pcl::console::L_INFO : pcl::console::L_ALWAYS);
 
   // Fail early on outputs that cannot be written, before any long work.
-  for (const std::string* out : {&o.output, &o.features, &o.stats})
+  for (const std::string* out : {&o.output, &o.features, &o.stats, &o.mesh})
     if (!out->empty())
     {
       const std::string why = io::checkWritable(*out);
@@ -361,6 +381,15 @@ int runTool(int argc, char** argv)
   progress.finish();
   r.point_type = point_type;
 
+  // The surface of the simplified cloud, when asked for: nothing is written if it fails.
+  std::optional<MeshRun> mesh;
+  if (!o.mesh.empty())
+  {
+    mesh = meshCloud(r.output, o.cocone);
+    if (!mesh->result.ok())
+      throw ToolError(kExitInput, o.input + ": the simplified cloud cannot be meshed: " + mesh->result.error);
+  }
+
   // Write everything to temporaries, then rename all into place.
   std::vector<std::unique_ptr<io::AtomicOutput>> outputs;
   try
@@ -372,11 +401,22 @@ int runTool(int argc, char** argv)
       outputs.push_back(std::make_unique<io::AtomicOutput>(o.features));
       io::writeCloud(outputs.back()->tempPath(), io::formatFromPath(o.features), r.features, o.encoding);
     }
+    if (mesh)
+    {
+      outputs.push_back(std::make_unique<io::AtomicOutput>(o.mesh));
+      writeMeshFile(outputs.back()->tempPath(), surface::meshFormatFromPath(o.mesh), *mesh);
+    }
     if (!o.stats.empty())
     {
       outputs.push_back(std::make_unique<io::AtomicOutput>(o.stats));
       std::ofstream js(outputs.back()->tempPath());
-      js << statsJson(o, r, input).dump(2) << "\n";
+      nlohmann::json j = statsJson(o, r, input);
+      if (mesh)
+      {
+        j["mesh"] = meshStatsJson(*mesh, o.cocone);
+        j["mesh"]["file"] = o.mesh;
+      }
+      js << j.dump(2) << "\n";
       js.flush();
       if (!js)
         throw io::FileError(o.stats + ": write error");
@@ -397,6 +437,8 @@ int runTool(int argc, char** argv)
                 o.output.c_str(), s.finite_points, s.output_points,
                 100.0 * static_cast<double>(s.output_points) / static_cast<double>(std::max<std::size_t>(1, s.finite_points)),
                 s.feature_points, s.balls, s.error_threshold, s.max_error, s.timings.total);
+    if (mesh)
+      std::printf("%s: %s\n", o.mesh.c_str(), meshSummaryLine(*mesh).c_str());
   }
   if (o.verbose)
   {

@@ -1,5 +1,6 @@
 // Replaces pcl::VoxelGrid by the filter in a three-line pipeline and checks it did something.
 #include <pcl_ecs/feature_aware_cover_simplify.h>
+#include <pcl_ecs/surface/cocone_reconstruction.h>
 
 #include <cmath>
 #include <cstdio>
@@ -22,5 +23,13 @@ int main()
   pcl::PointCloud<pcl::PointXYZRGB> out;
   ecs.filter(out);
   std::printf("consumer: %zu -> %zu points\n", cloud->size(), out.size());
-  return (out.size() > 0 && out.size() < cloud->size() && out[0].r == 200) ? 0 : 1;
+  if (!(out.size() > 0 && out.size() < cloud->size() && out[0].r == 200))
+    return 1;
+  // The simplified sheet meshed with Cocone, where GreedyProjectionTriangulation would stand.
+  pcl_ecs::Cocone<pcl::PointXYZRGB> cocone;
+  cocone.setInputCloud(std::make_shared<pcl::PointCloud<pcl::PointXYZRGB>>(out));
+  pcl::PolygonMesh mesh;
+  cocone.reconstruct(mesh);
+  std::printf("consumer: %zu triangles\n", mesh.polygons.size());
+  return mesh.polygons.empty() ? 1 : 0;
 }

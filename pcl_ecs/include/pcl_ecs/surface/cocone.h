@@ -65,7 +65,7 @@ struct CoconeParameters
    * openings are much longer than this. */
   std::size_t fill_hole_edges = 8;
   /** Components (after extraction) with fewer triangles are dropped. */
-  std::size_t min_component_triangles = 1;
+  std::size_t min_component_triangles = 10;
 
   /** \brief Empty when valid, else what is wrong. */
   std::string validate() const;

@@ -1,0 +1,97 @@
+// cocone_reconstruction.h — pcl_ecs::Cocone<PointT>: the Cocone surface as a PCL surface class.
+// Drop it in where pcl::GreedyProjectionTriangulation stood: setInputCloud, setIndices,
+// reconstruct(pcl::PolygonMesh&). No normals and no search tree are needed. As with every PCL
+// MeshConstruction, the mesh's cloud is the whole input cloud and the polygons index it; points
+// outside the indices, non-finite points and duplicates are simply not referenced.
+#pragma once
+
+#include <pcl_ecs/surface/cocone.h>
+
+#include <pcl/PolygonMesh.h>
+#include <pcl/Vertices.h>
+#include <pcl/console/print.h>
+#include <pcl/surface/reconstruction.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace pcl_ecs
+{
+
+template <typename PointInT>
+class Cocone : public pcl::MeshConstruction<PointInT>
+{
+public:
+  using Ptr = std::shared_ptr<Cocone<PointInT>>;
+  using ConstPtr = std::shared_ptr<const Cocone<PointInT>>;
+  using pcl::MeshConstruction<PointInT>::reconstruct;
+
+  Cocone() { this->check_tree_ = false; }
+
+  /** \brief All parameters at once (see surface::CoconeParameters for their meaning). */
+  void setParameters(const surface::CoconeParameters& p) { params_ = p; }
+  const surface::CoconeParameters& getParameters() const { return params_; }
+
+  /** \brief θ (radians): the cocone is the complement of the double cone of half-angle π/2 − θ. */
+  void setCoconeAngle(double radians) { params_.cocone_angle = radians; }
+  double getCoconeAngle() const { return params_.cocone_angle; }
+  /** \brief Keep open surfaces open (Dey-Giesen boundary detection). */
+  void setDetectBoundaries(bool on) { params_.detect_boundaries = on; }
+  bool getDetectBoundaries() const { return params_.detect_boundaries; }
+  void setBoundaryRatio(double rho) { params_.boundary_ratio = rho; }
+  double getBoundaryRatio() const { return params_.boundary_ratio; }
+  void setBoundaryNormalAngle(double radians) { params_.boundary_normal_angle = radians; }
+  double getBoundaryNormalAngle() const { return params_.boundary_normal_angle; }
+  void setSharpEdgeAngle(double radians) { params_.sharp_edge_angle = radians; }
+  double getSharpEdgeAngle() const { return params_.sharp_edge_angle; }
+  void setMaxEdgeRatio(double ratio) { params_.max_edge_ratio = ratio; }
+  double getMaxEdgeRatio() const { return params_.max_edge_ratio; }
+  void setFillHoleEdges(std::size_t edges) { params_.fill_hole_edges = edges; }
+  std::size_t getFillHoleEdges() const { return params_.fill_hole_edges; }
+
+  /** \brief What the last reconstruct() did; the error is empty on success. */
+  const surface::CoconeStats& getStats() const { return stats_; }
+  const std::string& getLastError() const { return error_; }
+
+protected:
+  std::string getClassName() const override { return "Cocone"; }
+
+  void performReconstruction(pcl::PolygonMesh& output) override { performReconstruction(output.polygons); }
+
+  void performReconstruction(std::vector<pcl::Vertices>& polygons) override
+  {
+    polygons.clear();
+    const auto& indices = *this->indices_;
+    const auto& cloud = *this->input_;
+    std::vector<Eigen::Vector3d> pts;
+    pts.reserve(indices.size());
+    for (const auto idx : indices)
+    {
+      const PointInT& p = cloud[static_cast<std::size_t>(idx)];
+      pts.emplace_back(p.x, p.y, p.z);
+    }
+    const surface::CoconeResult r = surface::coconeReconstruct(pts, params_);
+    stats_ = r.stats;
+    error_ = r.error;
+    if (!r.ok())
+    {
+      PCL_ERROR("[pcl_ecs::%s::reconstruct] %s\n", getClassName().c_str(), r.error.c_str());
+      return;
+    }
+    polygons.resize(r.triangles.size());
+    for (std::size_t t = 0; t < r.triangles.size(); ++t)
+    {
+      polygons[t].vertices.resize(3);
+      for (int k = 0; k < 3; ++k)
+        polygons[t].vertices[k] = static_cast<pcl::index_t>(indices[r.triangles[t][k]]);
+    }
+  }
+
+private:
+  surface::CoconeParameters params_;
+  surface::CoconeStats stats_;
+  std::string error_;
+};
+
+}  // namespace pcl_ecs
