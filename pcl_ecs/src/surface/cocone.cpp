@@ -19,6 +19,7 @@
 #include <numeric>
 #include <sstream>
 #include <unordered_map>
+#include <unordered_set>
 #include <utility>
 
 namespace pcl_ecs
@@ -47,21 +48,35 @@ std::uint64_t edgeKey(std::uint32_t a, std::uint32_t b)
   return (static_cast<std::uint64_t>(a) << 32) | b;
 }
 
-/** Edge → triangles incidence over a fixed triangle array (sorted pairs; deterministic). */
+/** Edge → triangles incidence over a fixed triangle array (sorted pairs; deterministic). The edge
+ * groups of every triangle are recorded, so the triangles at an edge of a known triangle are found
+ * in constant time. The triangle array must outlive the index and stay unchanged. */
 class EdgeIndex
 {
 public:
-  explicit EdgeIndex(const std::vector<Triangle>& tris)
+  using Pair = std::pair<std::uint64_t, std::uint32_t>;
+  explicit EdgeIndex(const std::vector<Triangle>& tris) : tris_(&tris)
   {
     pairs_.reserve(tris.size() * 3);
     for (std::uint32_t t = 0; t < tris.size(); ++t)
       for (int k = 0; k < 3; ++k)
         pairs_.emplace_back(edgeKey(tris[t][k], tris[t][(k + 1) % 3]), t);
     std::sort(pairs_.begin(), pairs_.end());
+    tri_group_.assign(tris.size() * 3, 0);
+    for (std::uint32_t p = 0; p < pairs_.size(); ++p)
+    {
+      if (p == 0 || pairs_[p].first != pairs_[p - 1].first)
+        start_.push_back(p);
+      const auto g = static_cast<std::uint32_t>(start_.size() - 1);
+      const Triangle& tri = tris[pairs_[p].second];
+      for (int k = 0; k < 3; ++k)
+        if (edgeKey(tri[k], tri[(k + 1) % 3]) == pairs_[p].first)
+          tri_group_[3 * static_cast<std::size_t>(pairs_[p].second) + k] = g;
+    }
+    start_.push_back(static_cast<std::uint32_t>(pairs_.size()));
   }
-  /** Triangles at edge ab, as a [first, last) range of (key, triangle) pairs. */
-  std::pair<const std::pair<std::uint64_t, std::uint32_t>*, const std::pair<std::uint64_t, std::uint32_t>*>
-  at(std::uint32_t a, std::uint32_t b) const
+  /** Triangles at edge ab, as a [first, last) range of (key, triangle) pairs (binary search). */
+  std::pair<const Pair*, const Pair*> at(std::uint32_t a, std::uint32_t b) const
   {
     const std::uint64_t key = edgeKey(a, b);
     auto lo = std::lower_bound(pairs_.begin(), pairs_.end(), std::make_pair(key, std::uint32_t{0}));
@@ -70,10 +85,25 @@ public:
       ++hi;
     return {pairs_.data() + (lo - pairs_.begin()), pairs_.data() + (hi - pairs_.begin())};
   }
-  const std::vector<std::pair<std::uint64_t, std::uint32_t>>& pairs() const { return pairs_; }
+  /** Triangles at edge ab of triangle t (constant time). */
+  std::pair<const Pair*, const Pair*> at(std::uint32_t t, std::uint32_t a, std::uint32_t b) const
+  {
+    const std::uint64_t key = edgeKey(a, b);
+    const Triangle& tri = (*tris_)[t];
+    for (int k = 0; k < 3; ++k)
+      if (edgeKey(tri[k], tri[(k + 1) % 3]) == key)
+      {
+        const std::uint32_t g = tri_group_[3 * static_cast<std::size_t>(t) + k];
+        return {pairs_.data() + start_[g], pairs_.data() + start_[g + 1]};
+      }
+    return at(a, b);
+  }
+  const std::vector<Pair>& pairs() const { return pairs_; }
 
 private:
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> pairs_;
+  const std::vector<Triangle>* tris_;
+  std::vector<Pair> pairs_;
+  std::vector<std::uint32_t> tri_group_, start_;
 };
 
 /** Angle (0, 2π] of the half-plane of triangle (a, b, c) around edge ab, measured from `u` towards
@@ -851,10 +881,10 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
     // is removed at most once, and only the neighbours of a removed triangle are looked at again.
     const double cos_open = std::cos(2 * kPi - params.sharp_edge_angle);
     std::vector<std::uint32_t> apexes, tris;
-    auto liveAt = [&](std::uint32_t a, std::uint32_t b) {
+    auto liveAt = [&](std::uint32_t t, std::uint32_t a, std::uint32_t b) {
       apexes.clear();
       tris.clear();
-      auto range = edges.at(a, b);
+      auto range = edges.at(t, a, b);
       for (auto it = range.first; it != range.second; ++it)
         if (alive[it->second])
         {
@@ -896,7 +926,7 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
         ++free_edges[pairs[i].second];
       else
       {
-        liveAt(a, b);
+        liveAt(pairs[i].second, a, b);
         if (sharp(a, b))
           for (std::size_t k = i; k < j; ++k)
             condemn(pairs[k].second);
@@ -917,7 +947,7 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
       for (int k = 0; k < 3; ++k)
       {
         const std::uint32_t a = cand[t][k], b = cand[t][(k + 1) % 3];
-        liveAt(a, b);
+        liveAt(t, a, b);
         if (tris.size() == 1)
         {
           if (++free_edges[tris[0]] >= 2)
@@ -964,7 +994,7 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
       for (int k = 0; k < 3; ++k)
       {
         const std::uint32_t a = tri[k], b = tri[(k + 1) % 3], c = tri[(k + 2) % 3];
-        auto range = edges.at(a, b);
+        auto range = edges.at(t, a, b);
         if (range.second - range.first < 2)
           continue;
         const Eigen::Vector3d e = (points[b] - points[a]).normalized();
@@ -1190,29 +1220,30 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
   // at least two current boundary edges (and whose third edge is free or a matching boundary edge)
   // is added. This keeps the mesh manifold and mends the places where the walk met a sliver from
   // two sides and the clean-up had to drop a triangle.
+  // Edge use of the kept triangles, shared by the two filling steps below.
+  struct EdgeUse
+  {
+    int count = 0;
+    std::uint32_t from = 0;  // for one triangle: the edge is traversed from -> other
+  };
+  std::unordered_map<std::uint64_t, EdgeUse> use;
+  use.reserve(out.size() * 2);
+  auto addEdges = [&](const Triangle& tri) {
+    for (int k = 0; k < 3; ++k)
+    {
+      EdgeUse& u = use[edgeKey(tri[k], tri[(k + 1) % 3])];
+      ++u.count;
+      u.from = tri[k];
+    }
+  };
+  for (std::uint32_t i = 0; i < out.size(); ++i)
+    if (keep[i])
+      addEdges(out[i]);
   {
     std::vector<char> in_mesh(cand.size(), 0);
     for (std::uint32_t i = 0; i < out.size(); ++i)
       if (keep[i])
         in_mesh[order[i]] = 1;
-    struct EdgeUse
-    {
-      int count = 0;
-      std::uint32_t from = 0;  // for one triangle: the edge is traversed from -> other
-    };
-    std::unordered_map<std::uint64_t, EdgeUse> use;
-    use.reserve(out.size() * 2);
-    auto addEdges = [&](const Triangle& tri) {
-      for (int k = 0; k < 3; ++k)
-      {
-        EdgeUse& u = use[edgeKey(tri[k], tri[(k + 1) % 3])];
-        ++u.count;
-        u.from = tri[k];
-      }
-    };
-    for (std::uint32_t i = 0; i < out.size(); ++i)
-      if (keep[i])
-        addEdges(out[i]);
     // First every candidate, then only those next to a triangle just added.
     std::vector<std::uint32_t> frontier;
     for (std::uint32_t t = 0; t < cand.size(); ++t)
@@ -1251,7 +1282,7 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
             ++st.filled_triangles;
             for (int k = 0; k < 3; ++k)
             {
-              auto range = edges.at(tri[k], tri[(k + 1) % 3]);
+              auto range = edges.at(t, tri[k], tri[(k + 1) % 3]);
               for (auto it = range.first; it != range.second; ++it)
                 if (alive[it->second] && !in_mesh[it->second])
                   next_frontier.push_back(it->second);
@@ -1269,40 +1300,34 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
   // shortest new edge first; a loop whose ears would all create an existing edge is left open.
   if (params.fill_hole_edges >= 3)
   {
-    std::unordered_map<std::uint64_t, std::pair<int, std::uint32_t>> use;  // count, traversal start
-    for (std::uint32_t t = 0; t < out.size(); ++t)
-      if (keep[t])
-        for (int k = 0; k < 3; ++k)
-        {
-          auto& u = use[edgeKey(out[t][k], out[t][(k + 1) % 3])];
-          ++u.first;
-          u.second = out[t][k];
-        }
-    // Hole edges: existing a → b gives hole edge b → a.
+    // Hole edges: existing a → b gives hole edge b → a. A vertex with two outgoing hole edges (two
+    // openings meeting at it) is ambiguous: loops through it are left alone.
     std::unordered_map<std::uint32_t, std::uint32_t> hole_next;
+    std::unordered_set<std::uint32_t> ambiguous;
     std::vector<std::uint32_t> starts;
-    bool ambiguous = false;
     for (const auto& [key, u] : use)
     {
-      if (u.first != 1)
+      if (u.count != 1)
         continue;
       const auto lo = static_cast<std::uint32_t>(key >> 32), hi = static_cast<std::uint32_t>(key & 0xffffffffu);
-      const std::uint32_t a = u.second, b = (a == lo ? hi : lo);
+      const std::uint32_t a = u.from, b = (a == lo ? hi : lo);
       if (!hole_next.emplace(b, a).second)
-        ambiguous = true;
+        ambiguous.insert(b);
       starts.push_back(b);
     }
     std::sort(starts.begin(), starts.end());
     std::unordered_map<std::uint32_t, char> visited;
     for (std::uint32_t s0 : starts)
     {
-      if (ambiguous || visited.count(s0))
+      if (visited.count(s0))
         continue;
       std::vector<std::uint32_t> loop;
       std::uint32_t v = s0;
       bool closed = false;
       while (loop.size() <= params.fill_hole_edges)
       {
+        if (ambiguous.count(v))
+          break;
         visited[v] = 1;
         loop.push_back(v);
         const auto it = hole_next.find(v);
@@ -1348,7 +1373,7 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
         const std::uint32_t prev = loop[(best_i + loop.size() - 1) % loop.size()], cur = loop[best_i],
                             next = loop[(best_i + 1) % loop.size()];
         added.push_back({prev, cur, next});
-        use[edgeKey(prev, next)] = {1, next};
+        use[edgeKey(prev, next)] = EdgeUse{1, next};
         loop.erase(loop.begin() + static_cast<std::ptrdiff_t>(best_i));
       }
       if (loop.size() != 3)

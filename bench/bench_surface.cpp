@@ -1,0 +1,333 @@
+// bench_surface — Cocone against PCL's GreedyProjectionTriangulation and Poisson and CGAL's
+// Advancing Front Surface Reconstruction, on simplified clouds of the shared scans and on 100k
+// point samples: non-manifold edges, boundary loops, components, distance to the reference mesh,
+// time. The Delaunay triangulation alone is timed in the same run (Cocone's target: at most 3×).
+//
+//   bench_surface SHARED_DATA_DIR OUT.json [--only NAME]
+#include "mesh_sampler.h"
+
+#include <pcl_ecs/eval/quality_metrics.h>
+#include <pcl_ecs/feature_aware_cover_simplify.h>
+#include <pcl_ecs/surface/cocone.h>
+
+#include <CGAL/Advancing_front_surface_reconstruction.h>
+#include <CGAL/Delaunay_triangulation_3.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+
+#include <pcl/features/normal_3d_omp.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/search/kdtree.h>
+#include <pcl/surface/gp3.h>
+#include <pcl/surface/poisson.h>
+
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <string>
+#include <vector>
+
+using namespace pcl_ecs;
+using Clock = std::chrono::steady_clock;
+using surface::Triangle;
+
+namespace
+{
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+struct Input
+{
+  std::string name, reference;  // reference: a mesh file, or empty
+  bool one_sided = false;       // the cloud sees only part of the reference (a single range view)
+  std::vector<Eigen::Vector3d> points;
+};
+
+struct MethodResult
+{
+  std::string method;
+  std::vector<Eigen::Vector3d> vertices;
+  std::vector<Triangle> triangles;
+  double seconds = 0;
+  nlohmann::json extra;
+};
+
+eval::TriangleMesh loadReference(const std::string& ply)
+{
+  pcl::PolygonMesh pm;
+  if (pcl::io::loadPLYFile(ply, pm) < 0)
+    throw std::runtime_error(ply + ": cannot read");
+  pcl::PointCloud<pcl::PointXYZ> v;
+  pcl::fromPCLPointCloud2(pm.cloud, v);
+  eval::TriangleMesh m;
+  for (const auto& p : v)
+    m.vertices.emplace_back(p.x, p.y, p.z);
+  for (const auto& poly : pm.polygons)
+    for (std::size_t k = 1; k + 1 < poly.vertices.size(); ++k)
+      m.triangles.emplace_back(poly.vertices[0], poly.vertices[k], poly.vertices[k + 1]);
+  return m;
+}
+
+pcl::PointCloud<pcl::PointXYZ>::Ptr toCloud(const std::vector<Eigen::Vector3d>& pts)
+{
+  auto c = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  for (const auto& p : pts)
+    c->emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()));
+  return c;
+}
+
+std::vector<Eigen::Vector3d> fromCloud(const pcl::PointCloud<pcl::PointXYZ>& c)
+{
+  std::vector<Eigen::Vector3d> v;
+  for (const auto& p : c)
+    v.emplace_back(p.x, p.y, p.z);
+  return v;
+}
+
+std::vector<Eigen::Vector3d> simplified(const std::string& pcd)
+{
+  auto cloud = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  if (pcl::io::loadPCDFile(pcd, *cloud) < 0)
+    throw std::runtime_error(pcd + ": cannot read");
+  FeatureAwareCoverSimplify<pcl::PointXYZ> f;
+  f.setInputCloud(cloud);
+  pcl::PointCloud<pcl::PointXYZ> out;
+  f.filter(out);
+  return fromCloud(out);
+}
+
+/// Normals by PCA of 20 neighbours, oriented away from the centroid (the inputs are closed-ish
+/// objects seen from outside), for GP3 and Poisson, which need them.
+pcl::PointCloud<pcl::PointNormal>::Ptr withNormals(const std::vector<Eigen::Vector3d>& pts)
+{
+  auto cloud = toCloud(pts);
+  pcl::NormalEstimationOMP<pcl::PointXYZ, pcl::Normal> ne;
+  ne.setInputCloud(cloud);
+  ne.setSearchMethod(std::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
+  ne.setKSearch(20);
+  Eigen::Vector4f c;
+  pcl::compute3DCentroid(*cloud, c);
+  ne.setViewPoint(c.x(), c.y(), c.z());
+  pcl::PointCloud<pcl::Normal> normals;
+  ne.compute(normals);
+  auto out = std::make_shared<pcl::PointCloud<pcl::PointNormal>>();
+  for (std::size_t i = 0; i < cloud->size(); ++i)
+  {
+    pcl::PointNormal p;
+    p.x = (*cloud)[i].x;
+    p.y = (*cloud)[i].y;
+    p.z = (*cloud)[i].z;
+    // The viewpoint is inside: flip so that normals point outwards.
+    p.normal_x = -normals[i].normal_x;
+    p.normal_y = -normals[i].normal_y;
+    p.normal_z = -normals[i].normal_z;
+    if (std::isfinite(p.normal_x))
+      out->push_back(p);
+  }
+  return out;
+}
+
+double meanSpacing(const std::vector<Eigen::Vector3d>& pts)
+{
+  auto cloud = toCloud(pts);
+  pcl::search::KdTree<pcl::PointXYZ> tree;
+  tree.setInputCloud(cloud);
+  double sum = 0;
+  pcl::Indices idx;
+  std::vector<float> d2;
+  for (const auto& p : *cloud)
+  {
+    tree.nearestKSearch(p, 2, idx, d2);
+    sum += std::sqrt(d2[1]);
+  }
+  return sum / static_cast<double>(cloud->size());
+}
+
+MethodResult fromPolygonMesh(const std::string& method, const pcl::PolygonMesh& pm, double seconds)
+{
+  MethodResult r;
+  r.method = method;
+  r.seconds = seconds;
+  pcl::PointCloud<pcl::PointXYZ> v;
+  pcl::fromPCLPointCloud2(pm.cloud, v);
+  r.vertices = fromCloud(v);
+  for (const auto& poly : pm.polygons)
+    for (std::size_t k = 1; k + 1 < poly.vertices.size(); ++k)
+      r.triangles.push_back({static_cast<std::uint32_t>(poly.vertices[0]), static_cast<std::uint32_t>(poly.vertices[k]),
+                             static_cast<std::uint32_t>(poly.vertices[k + 1])});
+  return r;
+}
+
+MethodResult runCocone(const Input& in)
+{
+  MethodResult r;
+  r.method = "Cocone (pcl_ecs)";
+  r.vertices = in.points;
+  const auto t0 = Clock::now();
+  const auto res = surface::coconeReconstruct(in.points);
+  r.seconds = since(t0);
+  r.triangles = res.triangles;
+  const auto& s = res.stats;
+  r.extra = {{"delaunay", s.time_delaunay}, {"poles", s.time_poles},     {"cocone", s.time_cocone},
+             {"prune", s.time_prune},       {"extract", s.time_extract}, {"cleanup", s.time_cleanup}};
+  return r;
+}
+
+double delaunayAlone(const std::vector<Eigen::Vector3d>& pts)
+{
+  using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+  std::vector<K::Point_3> p;
+  for (const auto& q : pts)
+    p.emplace_back(q.x(), q.y(), q.z());
+  const auto t0 = Clock::now();
+  CGAL::Delaunay_triangulation_3<K> dt(p.begin(), p.end());
+  const double s = since(t0);
+  if (dt.number_of_vertices() == 0)
+    std::printf("?");
+  return s;
+}
+
+MethodResult runGp3(const Input& in)
+{
+  const double spacing = meanSpacing(in.points);
+  const auto t0 = Clock::now();
+  auto cloud = withNormals(in.points);
+  pcl::GreedyProjectionTriangulation<pcl::PointNormal> gp3;
+  // PCL tutorial settings; the radius, given in its data's units there, is scaled to the cloud.
+  gp3.setSearchRadius(6.0 * spacing);
+  gp3.setMu(2.5);
+  gp3.setMaximumNearestNeighbors(100);
+  gp3.setMaximumSurfaceAngle(M_PI / 4);
+  gp3.setMinimumAngle(M_PI / 18);
+  gp3.setMaximumAngle(2 * M_PI / 3);
+  gp3.setNormalConsistency(false);
+  gp3.setInputCloud(cloud);
+  gp3.setSearchMethod(std::make_shared<pcl::search::KdTree<pcl::PointNormal>>());
+  pcl::PolygonMesh pm;
+  gp3.reconstruct(pm);
+  MethodResult r = fromPolygonMesh("PCL GreedyProjection", pm, since(t0));
+  r.extra = {{"search_radius", 6.0 * spacing}, {"mu", 2.5}};
+  return r;
+}
+
+MethodResult runPoisson(const Input& in)
+{
+  const auto t0 = Clock::now();
+  auto cloud = withNormals(in.points);
+  pcl::Poisson<pcl::PointNormal> poisson;
+  poisson.setDepth(8);
+  poisson.setInputCloud(cloud);
+  pcl::PolygonMesh pm;
+  poisson.reconstruct(pm);
+  MethodResult r = fromPolygonMesh("PCL Poisson (depth 8)", pm, since(t0));
+  r.extra = {{"depth", 8}};
+  return r;
+}
+
+MethodResult runAfsr(const Input& in)
+{
+  using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+  std::vector<K::Point_3> p;
+  for (const auto& q : in.points)
+    p.emplace_back(q.x(), q.y(), q.z());
+  MethodResult r;
+  r.method = "CGAL Advancing Front";
+  r.vertices = in.points;
+  std::vector<std::array<std::size_t, 3>> facets;
+  const auto t0 = Clock::now();
+  CGAL::advancing_front_surface_reconstruction(p.begin(), p.end(), std::back_inserter(facets));
+  r.seconds = since(t0);
+  for (const auto& f : facets)
+    r.triangles.push_back({static_cast<std::uint32_t>(f[0]), static_cast<std::uint32_t>(f[1]),
+                           static_cast<std::uint32_t>(f[2])});
+  return r;
+}
+
+nlohmann::json measure(const Input& in, const MethodResult& r, const eval::TriangleMesh* ref)
+{
+  const auto topo = surface::analyzeTopology(r.vertices.size(), r.triangles);
+  nlohmann::json j = {{"method", r.method},
+                      {"seconds", r.seconds},
+                      {"vertices_used", topo.used_vertices},
+                      {"triangles", topo.triangles},
+                      {"nonmanifold_edges", topo.nonmanifold_edges},
+                      {"nonmanifold_vertices", topo.nonmanifold_vertices},
+                      {"boundary_loops", topo.boundary_loops},
+                      {"components", topo.components},
+                      {"oriented", topo.consistently_oriented},
+                      {"details", r.extra}};
+  if (ref && !r.triangles.empty())
+  {
+    eval::TriangleMesh m;
+    m.vertices = r.vertices;
+    for (const auto& t : r.triangles)
+      m.triangles.emplace_back(t[0], t[1], t[2]);
+    eval::MeshDistance d;
+    eval::meshDistance(m, *ref, d);
+    j["to_reference_mean"] = d.to_reference_mean;
+    j["to_reference_max"] = d.to_reference_max;
+    j["from_reference_mean"] = d.from_reference_mean;
+    j["from_reference_max"] = d.from_reference_max;
+    j["hausdorff"] = in.one_sided ? d.to_reference_max : d.hausdorff();
+  }
+  return j;
+}
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  if (argc < 3)
+  {
+    std::fprintf(stderr, "usage: bench_surface SHARED_DATA_DIR OUT.json [--only NAME]\n");
+    return 2;
+  }
+  const std::string data = argv[1], out_path = argv[2];
+  const std::string only = argc > 4 && std::string(argv[3]) == "--only" ? argv[4] : "";
+  std::vector<std::function<Input()>> makers = {
+      [&] { return Input{"bunny, simplified (defaults)", data + "/bunny_mesh.ply", false, simplified(data + "/bunny.pcd")}; },
+      [&] { return Input{"fandisk, simplified (defaults)", data + "/fandisk_mesh.ply", false, simplified(data + "/fandisk_scan.pcd")}; },
+      [&] { return Input{"bun000 range view, simplified", data + "/bunny_mesh.ply", true, simplified(data + "/bun000_rangescan.pcd")}; },
+      [&] {
+        const auto t = pcl_ecs_bench::loadTriangles(data + "/bunny_mesh.ply");
+        return Input{"bunny mesh, 100k samples", data + "/bunny_mesh.ply", false,
+                     fromCloud(*pcl_ecs_bench::sampleTriangles(t, 100000, 0.0, 7))};
+      },
+      [&] {
+        pcl::PointCloud<pcl::PointXYZ> c;
+        pcl::io::loadPCDFile(data + "/fandisk_scan.pcd", c);
+        return Input{"fandisk scan, 120k", data + "/fandisk_mesh.ply", false, fromCloud(c)};
+      }};
+  nlohmann::json all = nlohmann::json::array();
+  for (const auto& make : makers)
+  {
+    const Input in = make();
+    if (!only.empty() && in.name.find(only) == std::string::npos)
+      continue;
+    const eval::TriangleMesh ref = loadReference(in.reference);
+    std::printf("\n### %s: %zu points\n\n", in.name.c_str(), in.points.size());
+    std::printf("| method | time s | triangles | non-manifold edges | non-manifold vertices | boundary loops | components | mean dist (L) | Hausdorff (L) |\n");
+    std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+    nlohmann::json entry = {{"input", in.name}, {"points", in.points.size()}, {"methods", nlohmann::json::array()}};
+    entry["delaunay_alone_s"] = delaunayAlone(in.points);
+    for (auto run : {runCocone, runGp3, runPoisson, runAfsr})
+    {
+      const MethodResult r = run(in);
+      const nlohmann::json j = measure(in, r, &ref);
+      entry["methods"].push_back(j);
+      std::printf("| %s | %.3f | %zu | %zu | %zu | %zu | %zu | %.2e | %.2e |\n", r.method.c_str(), r.seconds,
+                  j["triangles"].get<std::size_t>(), j["nonmanifold_edges"].get<std::size_t>(),
+                  j["nonmanifold_vertices"].get<std::size_t>(), j["boundary_loops"].get<std::size_t>(),
+                  j["components"].get<std::size_t>(), j.value("to_reference_mean", 0.0), j.value("hausdorff", 0.0));
+      std::fflush(stdout);
+    }
+    const auto& cocone = entry["methods"][0];
+    std::printf("\nDelaunay alone %.3f s; Cocone / Delaunay = %.2f; Cocone stages: %s\n",
+                entry["delaunay_alone_s"].get<double>(), cocone["seconds"].get<double>() / entry["delaunay_alone_s"].get<double>(),
+                cocone["details"].dump().c_str());
+    all.push_back(entry);
+  }
+  std::ofstream(out_path) << all.dump(2) << "\n";
+  return 0;
+}
