@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <set>
 #ifdef _OPENMP
 #include <omp.h>
 #endif
@@ -418,4 +419,105 @@ TEST(CoconeScan, BunnyIsAManifoldCloseToTheReference)
   EXPECT_LT(d.from_reference_mean, 1e-4);
   EXPECT_LT(d.to_reference_max, 0.04);
   EXPECT_LT(d.from_reference_max, 0.01);
+}
+
+// ---- watertight ----------------------------------------------------------------------------------
+
+namespace
+{
+/// The sphere cut open below z = −0.5 (as in CappedSphereKeepsItsOpening).
+std::vector<Eigen::Vector3d> cappedSphere(std::size_t n, std::uint64_t seed)
+{
+  std::vector<Eigen::Vector3d> pts;
+  for (const auto& p : randomSphere(n, 1.0, seed))
+    if (p.z() > -0.5)
+      pts.push_back(p);
+  return pts;
+}
+}  // namespace
+
+TEST(CoconeWatertight, HolesAreSealed)
+{
+  // Small holes in a closed surface are bridged by Cocone itself (they are still sampled at the
+  // scale of the local feature size); an opening like the capped sphere's stays open by default
+  // and is sealed by the option.
+  const auto pts = cappedSphere(12000, 11);
+  const auto open = coconeReconstruct(pts);
+  ASSERT_TRUE(open.ok()) << open.error;
+  const MeshTopology to = analyzeTopology(pts.size(), open.triangles);
+  EXPECT_EQ(to.boundary_loops, 1u);
+
+  CoconeParameters p;
+  p.watertight = true;
+  const auto closed = coconeReconstruct(pts, p);
+  ASSERT_TRUE(closed.ok()) << closed.error;
+  const MeshTopology tc = analyzeTopology(pts.size(), closed.triangles);
+  EXPECT_TRUE(tc.isClosedManifold()) << "boundary " << tc.boundary_edges << " nm edges " << tc.nonmanifold_edges
+                                     << " nm vertices " << tc.nonmanifold_vertices;
+  EXPECT_EQ(tc.euler_characteristic, 2);  // a sphere again
+  EXPECT_EQ(tc.components, 1u);
+  EXPECT_EQ(tc.used_vertices, to.used_vertices);
+  EXPECT_EQ(closed.stats.sealed_loops, 1u);
+  // Orientation: the seal (triangles spanning the cut) faces down, the rest away from the centre.
+  std::set<Triangle> before;
+  for (Triangle t : open.triangles)
+  {
+    std::sort(t.begin(), t.end());
+    before.insert(t);
+  }
+  std::size_t seal = 0, wrong = 0;
+  for (const Triangle& tri : closed.triangles)
+  {
+    Triangle key = tri;
+    std::sort(key.begin(), key.end());
+    const Eigen::Vector3d nrm = (pts[tri[1]] - pts[tri[0]]).cross(pts[tri[2]] - pts[tri[0]]);
+    const Eigen::Vector3d c = (pts[tri[0]] + pts[tri[1]] + pts[tri[2]]) / 3.0;
+    const bool is_seal = !before.count(key);  // the triangles the option added
+    seal += is_seal;
+    const bool bad = is_seal ? (nrm.z() >= 0) : (nrm.dot(c) <= 0);
+    wrong += bad;
+
+  }
+  EXPECT_GT(seal, 0u);
+  EXPECT_EQ(wrong, 0u);
+}
+
+TEST(CoconeWatertight, ClosedInputsStayTheSame)
+{
+  // On a sphere and a torus the Cocone surface is already closed: the watertight option gives the
+  // same triangles.
+  for (const auto& pts : {randomSphere(3000, 1.0, 8), randomTorus(6000, 1.0, 0.35, 8)})
+  {
+    CoconeParameters p;
+    p.watertight = true;
+    auto a = coconeReconstruct(pts).triangles, b = coconeReconstruct(pts, p).triangles;
+    auto canon = [](std::vector<Triangle>& v) {
+      for (auto& t : v)
+        std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
+      std::sort(v.begin(), v.end());
+    };
+    canon(a);
+    canon(b);
+    EXPECT_EQ(a, b);
+  }
+}
+
+TEST(CoconeWatertight, BunnyBecomesClosed)
+{
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  if (pcl::io::loadPCDFile(pcl_ecs_test::sharedData("bunny.pcd"), cloud) != 0)
+    GTEST_SKIP() << "shared data missing";
+  std::vector<Eigen::Vector3d> pts;
+  for (const auto& q : cloud)
+    pts.emplace_back(q.x, q.y, q.z);
+  CoconeParameters p;
+  p.watertight = true;
+  const auto r = coconeReconstruct(pts, p);
+  ASSERT_TRUE(r.ok()) << r.error;
+  const MeshTopology t = analyzeTopology(pts.size(), r.triangles);
+  std::printf("bunny watertight: %zu triangles, %zu used of %zu, %zu loops sealed, chi %ld, %zu components\n",
+              t.triangles, t.used_vertices, pts.size(), r.stats.sealed_loops, t.euler_characteristic, t.components);
+  EXPECT_TRUE(t.isClosedManifold()) << "boundary " << t.boundary_edges << " nm edges " << t.nonmanifold_edges
+                                    << " nm vertices " << t.nonmanifold_vertices;
+  EXPECT_GE(static_cast<double>(t.used_vertices), 0.99 * static_cast<double>(pts.size()));
 }

@@ -200,4 +200,10 @@ TEST_F(MeshCli, SimplifyThenMeshTheBunny)
   EXPECT_GE(static_cast<double>(v), 0.95 * static_cast<double>(simplified));
   EXPECT_LE(t.boundary_loops, 20u);
   EXPECT_EQ(j["mesh"]["topology"]["boundary_loops"], t.boundary_loops);
+
+  // --watertight closes it.
+  r = run(kReconstruct, path("b.pcd") + " " + path("w.ply") + " --watertight");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("closed manifold"), std::string::npos) << r.out;
+  EXPECT_TRUE(plyTopology(path("w.ply")).isClosedManifold());
 }

@@ -49,6 +49,8 @@ bool applyCoconeFlag(const std::string& flag, const std::function<std::string()>
     p.max_edge_ratio = parseDoubleFlag(flag, value());
   else if (flag == "--fill-holes")
     p.fill_hole_edges = static_cast<std::size_t>(parseUnsignedFlag(flag, value()));
+  else if (flag == "--watertight")
+    p.watertight = true;
   else if (flag == "--min-component")
     p.min_component_triangles = static_cast<std::size_t>(parseUnsignedFlag(flag, value()));
   else
@@ -75,6 +77,7 @@ std::string coconeFlagsHelp()
     << "  --max-edge-ratio R  refuse triangles longer than R × the local spacing, 0 = off (default "
     << d.max_edge_ratio << ")\n"
     << "  --fill-holes N      close boundary loops of at most N edges, 0 = off (default " << d.fill_hole_edges << ")\n"
+    << "  --watertight        seal every remaining boundary loop: a closed surface for closed objects\n"
     << "  --min-component N   drop pieces of fewer than N triangles (default " << d.min_component_triangles << ")\n";
   return s.str();
 }
@@ -132,7 +135,8 @@ nlohmann::json meshStatsJson(const MeshRun& run, const surface::CoconeParameters
                      {"prune", p.prune},
                      {"max_edge_ratio", p.max_edge_ratio},
                      {"fill_hole_edges", p.fill_hole_edges},
-                     {"min_component_triangles", p.min_component_triangles}};
+                     {"min_component_triangles", p.min_component_triangles},
+                     {"watertight", p.watertight}};
   j["counts"] = {{"input_points", s.input_points},
                  {"non_finite_points", s.non_finite_points},
                  {"duplicate_points", s.duplicate_points},
@@ -146,6 +150,7 @@ nlohmann::json meshStatsJson(const MeshRun& run, const surface::CoconeParameters
                  {"extracted_triangles", s.extracted_triangles},
                  {"filled_triangles", s.filled_triangles},
                  {"cleanup_removed_triangles", s.cleanup_removed_triangles},
+                 {"sealed_loops", s.sealed_loops},
                  {"triangles", s.triangles},
                  {"used_vertices", s.used_vertices}};
   j["topology"] = {{"edges", t.edges},

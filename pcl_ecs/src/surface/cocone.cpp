@@ -1296,10 +1296,10 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
       frontier.swap(next_frontier);
     }
   }
-  // Small holes (boundary loops of at most fill_hole_edges edges) are closed by ear clipping,
-  // shortest new edge first; a loop whose ears would all create an existing edge is left open.
-  if (params.fill_hole_edges >= 3)
-  {
+  // Holes (boundary loops of at most max_edges edges) are closed by ear clipping, shortest new edge
+  // first; a loop whose ears would all create an existing edge (or, with the ratio guard, an edge
+  // longer than max_edge_ratio × the local spacing: a gap in the sampling) is left open.
+  auto closeLoops = [&](std::size_t max_edges, bool ratio_guard) -> std::size_t {
     // Hole edges: existing a → b gives hole edge b → a. A vertex with two outgoing hole edges (two
     // openings meeting at it) is ambiguous: loops through it are left alone.
     std::unordered_map<std::uint32_t, std::uint32_t> hole_next;
@@ -1316,7 +1316,8 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
       starts.push_back(b);
     }
     std::sort(starts.begin(), starts.end());
-    std::unordered_map<std::uint32_t, char> visited;
+    std::unordered_set<std::uint32_t> visited;
+    std::size_t closed_loops = 0;
     for (std::uint32_t s0 : starts)
     {
       if (visited.count(s0))
@@ -1324,11 +1325,11 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
       std::vector<std::uint32_t> loop;
       std::uint32_t v = s0;
       bool closed = false;
-      while (loop.size() <= params.fill_hole_edges)
+      while (loop.size() <= max_edges)
       {
         if (ambiguous.count(v))
           break;
-        visited[v] = 1;
+        visited.insert(v);
         loop.push_back(v);
         const auto it = hole_next.find(v);
         if (it == hole_next.end())
@@ -1342,25 +1343,35 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
         if (visited.count(v))
           break;
       }
-      if (!closed || loop.size() < 3 || loop.size() > params.fill_hole_edges)
+      if (!closed || loop.size() < 3 || loop.size() > max_edges)
         continue;
       std::vector<Triangle> added;
-      auto cur_of = [&](std::size_t i) { return loop[i]; };
+      std::unordered_set<std::uint64_t> chords;
+      // Newell normal of the loop, in the orientation the new triangles take: convex ears first, so
+      // that the seal does not fold over itself.
+      Eigen::Vector3d loop_normal = Eigen::Vector3d::Zero();
+      for (std::size_t i = 0; i < loop.size(); ++i)
+        loop_normal += points[loop[i]].cross(points[loop[(i + 1) % loop.size()]]);
       while (loop.size() > 3)
       {
         double best = std::numeric_limits<double>::infinity();
         std::size_t best_i = loop.size();
+        for (int pass = 0; pass < 2 && best_i == loop.size(); ++pass)
         for (std::size_t i = 0; i < loop.size(); ++i)
         {
           const std::uint32_t prev = loop[(i + loop.size() - 1) % loop.size()], next = loop[(i + 1) % loop.size()];
-          if (use.count(edgeKey(prev, next)))
+          const std::uint64_t key = edgeKey(prev, next);
+          if (use.count(key) || chords.count(key))
             continue;
           const double len = (points[prev] - points[next]).squaredNorm();
-          if (params.max_edge_ratio > 0)
+          if (pass == 0 &&
+              (points[loop[i]] - points[prev]).cross(points[next] - points[prev]).dot(loop_normal) <= 0)
+            continue;  // a reflex ear: only when no convex one is left
+          if (ratio_guard && params.max_edge_ratio > 0)
           {
-            const double local = std::max({spacing[prev], spacing[cur_of(i)], spacing[next]});
+            const double local = std::max({spacing[prev], spacing[loop[i]], spacing[next]});
             if (len > params.max_edge_ratio * params.max_edge_ratio * local * local)
-              continue;  // the hole is a gap in the sampling, not a notch
+              continue;
           }
           if (len < best)
           {
@@ -1373,20 +1384,27 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
         const std::uint32_t prev = loop[(best_i + loop.size() - 1) % loop.size()], cur = loop[best_i],
                             next = loop[(best_i + 1) % loop.size()];
         added.push_back({prev, cur, next});
-        use[edgeKey(prev, next)] = EdgeUse{1, next};
+        chords.insert(edgeKey(prev, next));
         loop.erase(loop.begin() + static_cast<std::ptrdiff_t>(best_i));
       }
       if (loop.size() != 3)
-        continue;  // (edges recorded for the abandoned ears only block further ears; harmless)
+        continue;  // nothing of this loop is committed
       added.push_back({loop[0], loop[1], loop[2]});
       for (const Triangle& tri : added)
       {
         out.push_back(tri);
         keep.push_back(1);
+        addEdges(tri);
         ++st.filled_triangles;
       }
+      ++closed_loops;
     }
-  }
+    return closed_loops;
+  };
+  if (params.fill_hole_edges >= 3)
+    closeLoops(params.fill_hole_edges, true);
+  if (params.watertight)
+    st.sealed_loops = closeLoops(std::numeric_limits<std::size_t>::max() - 1, false);
   // Components (through shared edges) of what is kept; small ones are dropped.
   {
     std::vector<Triangle> kept;
@@ -1416,6 +1434,7 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
     }
   }
   st.cleanup_removed_triangles = st.extracted_triangles + st.filled_triangles - result.triangles.size();
+  st.time_cleanup = since(t0);
   st.triangles = result.triangles.size();
   {
     std::vector<char> used(n, 0);
@@ -1424,7 +1443,6 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
         used[x] = 1;
     st.used_vertices = static_cast<std::size_t>(std::count(used.begin(), used.end(), 1));
   }
-  st.time_cleanup = since(t0);
   st.time_total = since(t_start);
   if (result.triangles.empty())
     result.error = "no surface found: no Delaunay triangle passed the cocone test";

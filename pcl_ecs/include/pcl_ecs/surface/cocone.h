@@ -19,7 +19,9 @@
 //   6. Extraction: a walk from a hull triangle oriented outwards; across each edge the walk takes
 //      the first triangle met when turning towards the outside, oriented consistently.
 //   7. Clean-up: an edge keeps at most two triangles, a vertex keeps its largest fan of triangles,
-//      so the result is an oriented 2-manifold (possibly with boundary).
+//      so the result is an oriented 2-manifold (possibly with boundary); notches and holes of a few
+//      edges are closed (candidates first, then ear clipping).
+//   8. Optional watertight closing: every remaining boundary loop is sealed.
 #pragma once
 
 #include <Eigen/Core>
@@ -64,6 +66,10 @@ struct CoconeParameters
    * places where the walk met a sliver from two sides, or one sample short); 0 disables it. Real
    * openings are much longer than this. */
   std::size_t fill_hole_edges = 8;
+  /** Close the surface into a watertight one for closed objects: after the steps above, every
+   * remaining boundary loop, whatever its size, is sealed by ear clipping (shortest chord first,
+   * never an edge the mesh already has). An open surface gets closed too. */
+  bool watertight = false;
   /** Components (after extraction) with fewer triangles are dropped. */
   std::size_t min_component_triangles = 10;
 
@@ -88,6 +94,7 @@ struct CoconeStats
   std::size_t cleanup_removed_triangles = 0;
   std::size_t filled_triangles = 0;  ///< candidates added afterwards to close notches and small holes
   std::size_t components = 0;
+  std::size_t sealed_loops = 0;  ///< boundary loops sealed by the watertight option
   std::size_t triangles = 0;       ///< in the output
   std::size_t used_vertices = 0;   ///< distinct vertices referenced by the output
   double time_delaunay = 0, time_poles = 0, time_cocone = 0, time_prune = 0, time_extract = 0,

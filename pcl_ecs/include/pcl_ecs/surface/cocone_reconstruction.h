@@ -47,6 +47,9 @@ public:
   double getSharpEdgeAngle() const { return params_.sharp_edge_angle; }
   void setMaxEdgeRatio(double ratio) { params_.max_edge_ratio = ratio; }
   double getMaxEdgeRatio() const { return params_.max_edge_ratio; }
+  /** \brief Seal every remaining boundary loop (a closed surface for closed objects). */
+  void setWatertight(bool on) { params_.watertight = on; }
+  bool getWatertight() const { return params_.watertight; }
   void setFillHoleEdges(std::size_t edges) { params_.fill_hole_edges = edges; }
   std::size_t getFillHoleEdges() const { return params_.fill_hole_edges; }
 
