@@ -4,6 +4,7 @@
 //
 //   bench_throughput --mesh ../shared/data/bunny_mesh.ply --points 1000000 [--keep 0.10]
 //   bench_throughput --cloud ../shared/data/terrain_csite1_utm.pcd [--keep 0.10] [--json out.json]
+#include "bench_common.h"
 #include "mesh_sampler.h"
 
 #include <pcl_ecs/feature_aware_cover_simplify.h>
@@ -32,85 +33,8 @@
 
 namespace
 {
-using Clock = std::chrono::steady_clock;
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
-
-/// A field of /proc/self/status, in MiB.
-double statusMiB(const char* key)
-{
-  std::ifstream in("/proc/self/status");
-  std::string line;
-  while (std::getline(in, line))
-    if (line.rfind(key, 0) == 0)
-      return std::stod(line.substr(std::strlen(key))) / 1024.0;
-  return -1.0;
-}
-
-struct Measure
-{
-  double seconds = 0, peak_extra_mib = 0;
-  std::size_t size = 0;
-};
-
-/// In a fresh child process (see runChild): reset the peak-RSS mark, run, and report the time and
-/// the peak resident memory above what the loaded input already used.
-Measure measureHere(const std::function<std::size_t()>& run)
-{
-  std::ofstream("/proc/self/clear_refs") << "5";  // VmHWM := VmRSS (Linux >= 4.0)
-  const double base = statusMiB("VmRSS:");
-  const auto t0 = Clock::now();
-  Measure m;
-  m.size = run();
-  m.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-  m.peak_extra_mib = statusMiB("VmHWM:") - base;
-  return m;
-}
-
-/// Run this program again as `--child METHOD PARAM` with the same input flags, so that each
-/// method's memory is measured in a process of its own; parse the line it prints.
-Measure runChild(const std::vector<std::string>& input_args, const std::string& method, double param)
-{
-  std::ostringstream cmd;
-  cmd << std::filesystem::read_symlink("/proc/self/exe").string();  // popen runs a shell
-  for (const auto& a : input_args)
-    cmd << " '" << a << "'";
-  cmd.precision(17);
-  cmd << " --child " << method << " " << param;
-  FILE* pipe = ::popen(cmd.str().c_str(), "r");
-  if (!pipe)
-    throw std::runtime_error("cannot start " + cmd.str());
-  Measure m;
-  const int got = std::fscanf(pipe, "%zu %lf %lf", &m.size, &m.seconds, &m.peak_extra_mib);
-  const int status = ::pclose(pipe);
-  if (got != 3 || status != 0)
-    throw std::runtime_error("the child run failed: " + cmd.str());
-  return m;
-}
-
-/// Geometric bisection of a monotone-decreasing size(param) for the target (within 1%).
-template <typename F>
-double searchParameter(double lo, double hi, std::size_t target, F size_of, int iterations = 40)
-{
-  double best = lo, best_err = 1e300;
-  for (int i = 0; i < iterations; ++i)
-  {
-    const double mid = std::sqrt(lo * hi);
-    const std::size_t s = size_of(mid);
-    const double err = std::abs(static_cast<double>(s) - static_cast<double>(target));
-    if (err < best_err)
-    {
-      best_err = err;
-      best = mid;
-    }
-    if (err <= 0.01 * target)
-      break;
-    if (s > target)
-      lo = mid;
-    else
-      hi = mid;
-  }
-  return best;
-}
+using namespace pcl_ecs_bench;
 }  // namespace
 
 int main(int argc, char** argv)

@@ -1,0 +1,364 @@
+// bench_peers — the issue-4 head-to-head: pcl_ecs against PCL's VoxelGrid, UniformSampling,
+// RandomSample, NormalSpaceSampling and FarthestPointSampling and CGAL's grid, hierarchy and WLOP
+// simplification, at the same output size (each peer's own parameter searched until the size is
+// within 1%), on the shared scans. Every run is timed in a child process of its own (peak memory
+// there); the parent measures the quality of what it wrote with the pcl_ecs_eval metrics.
+//
+//   bench_peers --data ../shared/data --out bench/results/peers.json [--ratios 0.1,0.03]
+//               [--inputs bunny,fandisk] [--workdir DIR]
+#include "bench_common.h"
+
+#include <pcl_ecs/eval/quality_metrics.h>
+#include <pcl_ecs/feature_aware_cover_simplify.h>
+#include <pcl_ecs/io/cloud_io.h>
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/grid_simplify_point_set.h>
+#include <CGAL/hierarchy_simplify_point_set.h>
+#include <CGAL/wlop_simplify_and_regularize_point_set.h>
+
+#include <pcl/common/common.h>
+#include <pcl/conversions.h>
+#include <pcl/features/normal_3d_omp.h>
+#include <pcl/filters/farthest_point_sampling.h>
+#include <pcl/filters/normal_space.h>
+#include <pcl/filters/random_sample.h>
+#include <pcl/filters/uniform_sampling.h>
+#include <pcl/filters/voxel_grid.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
+#include <pcl/search/kdtree.h>
+
+#include <nlohmann/json.hpp>
+
+#include <iostream>
+#include <map>
+
+using namespace pcl_ecs_bench;
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+
+namespace
+{
+const std::vector<std::string> kMethods = {"pcl_ecs",      "voxel_grid", "uniform_sampling", "random_sample",
+                                           "normal_space", "fps",        "cgal_grid",        "cgal_hierarchy",
+                                           "cgal_wlop"};
+
+std::string label(const std::string& m)
+{
+  static const std::map<std::string, std::string> names = {
+      {"pcl_ecs", "pcl_ecs"},
+      {"voxel_grid", "PCL VoxelGrid"},
+      {"uniform_sampling", "PCL UniformSampling"},
+      {"random_sample", "PCL RandomSample"},
+      {"normal_space", "PCL NormalSpaceSampling"},
+      {"fps", "PCL FarthestPointSampling"},
+      {"cgal_grid", "CGAL grid_simplify"},
+      {"cgal_hierarchy", "CGAL hierarchy_simplify"},
+      {"cgal_wlop", "CGAL WLOP"}};
+  return names.at(m);
+}
+
+Cloud::Ptr loadFinite(const std::string& path)
+{
+  pcl::PCLPointCloud2 blob;
+  pcl_ecs::io::readCloud(path, blob);
+  Cloud all;
+  pcl::fromPCLPointCloud2(blob, all);
+  auto c = std::make_shared<Cloud>();
+  for (const auto& p : all)
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+      c->push_back(p);
+  c->width = static_cast<std::uint32_t>(c->size());
+  c->height = 1;
+  c->is_dense = true;
+  return c;
+}
+
+std::vector<K::Point_3> toCgal(const Cloud& c)
+{
+  std::vector<K::Point_3> v;
+  v.reserve(c.size());
+  for (const auto& p : c)
+    v.emplace_back(p.x, p.y, p.z);
+  return v;
+}
+
+Cloud fromCgal(const std::vector<K::Point_3>& v)
+{
+  Cloud c;
+  for (const auto& p : v)
+    c.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()));
+  return c;
+}
+
+/// One method at one parameter; `target` is for the methods that take a count.
+Cloud runMethod(const std::string& m, const Cloud::Ptr& in, double param, std::size_t target)
+{
+  Cloud out;
+  if (m == "pcl_ecs")
+  {
+    pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> f;
+    f.setErrorThreshold(param);
+    f.setInputCloud(in);
+    f.filter(out);
+  }
+  else if (m == "voxel_grid")
+  {
+    pcl::VoxelGrid<pcl::PointXYZ> f;
+    const auto leaf = static_cast<float>(param);
+    f.setLeafSize(leaf, leaf, leaf);
+    f.setInputCloud(in);
+    f.filter(out);
+  }
+  else if (m == "uniform_sampling")
+  {
+    pcl::UniformSampling<pcl::PointXYZ> f;
+    f.setRadiusSearch(param);
+    f.setInputCloud(in);
+    f.filter(out);
+  }
+  else if (m == "random_sample")
+  {
+    pcl::RandomSample<pcl::PointXYZ> f;
+    f.setSample(static_cast<unsigned>(target));
+    f.setSeed(42);
+    f.setInputCloud(in);
+    f.filter(out);
+  }
+  else if (m == "normal_space")
+  {
+    pcl::NormalEstimationOMP<pcl::PointXYZ, pcl::Normal> ne;
+    ne.setInputCloud(in);
+    ne.setSearchMethod(std::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
+    ne.setKSearch(16);
+    auto normals = std::make_shared<pcl::PointCloud<pcl::Normal>>();
+    ne.compute(*normals);
+    pcl::NormalSpaceSampling<pcl::PointXYZ, pcl::Normal> f;
+    f.setInputCloud(in);
+    f.setNormals(normals);
+    f.setBins(4, 4, 4);
+    f.setSample(static_cast<unsigned>(target));
+    f.setSeed(42);
+    f.filter(out);
+  }
+  else if (m == "fps")
+  {
+    pcl::FarthestPointSampling<pcl::PointXYZ> f;
+    f.setSample(static_cast<int>(target));
+    f.setSeed(42);
+    f.setInputCloud(in);
+    f.filter(out);
+  }
+  else if (m == "cgal_grid")
+  {
+    auto pts = toCgal(*in);
+    pts.erase(CGAL::grid_simplify_point_set(pts, param), pts.end());
+    out = fromCgal(pts);
+  }
+  else if (m == "cgal_hierarchy")
+  {
+    auto pts = toCgal(*in);
+    pts.erase(CGAL::hierarchy_simplify_point_set(pts, CGAL::parameters::size(static_cast<unsigned>(std::lround(param)))),
+              pts.end());
+    out = fromCgal(pts);
+  }
+  else if (m == "cgal_wlop")
+  {
+    auto pts = toCgal(*in);
+    std::vector<K::Point_3> res;
+    const double pct = 100.0 * static_cast<double>(target) / static_cast<double>(in->size());
+    CGAL::wlop_simplify_and_regularize_point_set<CGAL::Sequential_tag>(pts, std::back_inserter(res),
+                                                                       CGAL::parameters::select_percentage(pct));
+    out = fromCgal(res);
+  }
+  else
+    throw std::runtime_error("unknown method " + m);
+  return out;
+}
+
+std::vector<std::string> split(const std::string& s)
+{
+  std::vector<std::string> v;
+  std::stringstream ss(s);
+  for (std::string x; std::getline(ss, x, ',');)
+    if (!x.empty())
+      v.push_back(x);
+  return v;
+}
+
+struct InputSpec
+{
+  std::string name, file, mesh;
+};
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  std::string data = "../shared/data", out_path = "peers.json", workdir = "/tmp/pcl_ecs_peers", input, write;
+  std::string child;
+  double param = 0;
+  std::size_t target = 0;
+  std::vector<double> ratios = {0.10, 0.03};
+  std::vector<std::string> only;
+  for (int i = 1; i < argc; ++i)
+  {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc)
+        throw std::runtime_error(a + " needs a value");
+      return argv[++i];
+    };
+    if (a == "--data")
+      data = next();
+    else if (a == "--out")
+      out_path = next();
+    else if (a == "--workdir")
+      workdir = next();
+    else if (a == "--ratios")
+    {
+      ratios.clear();
+      for (const auto& r : split(next()))
+        ratios.push_back(std::stod(r));
+    }
+    else if (a == "--inputs")
+      only = split(next());
+    else if (a == "--input")
+      input = next();
+    else if (a == "--target")
+      target = std::stoull(next());
+    else if (a == "--child")
+    {
+      child = next();
+      param = std::stod(next());
+    }
+    else if (a == "--write")
+      write = next();
+    else
+    {
+      std::fprintf(stderr, "bench_peers: unknown argument %s\n", a.c_str());
+      return 2;
+    }
+  }
+
+  if (!child.empty())
+  {
+    Cloud::Ptr in = std::make_shared<Cloud>();
+    pcl::io::loadPCDFile(input, *in);
+    Cloud out;
+    const Measure m = measureHere([&] {
+      out = runMethod(child, in, param, target);
+      return out.size();
+    });
+    if (!write.empty() && !out.empty())
+      pcl::io::savePCDFileBinary(write, out);
+    std::printf("%zu %.9f %.3f\n", m.size, m.seconds, m.peak_extra_mib);
+    return 0;
+  }
+
+  std::filesystem::create_directories(workdir);
+  const std::vector<InputSpec> inputs = {{"bunny", data + "/bunny.pcd", data + "/bunny_mesh.ply"},
+                                         {"fandisk", data + "/fandisk_scan.pcd", data + "/fandisk_mesh.ply"},
+                                         {"bun000", data + "/bun000_rangescan.pcd", ""},
+                                         {"mug", data + "/table_scene_mug_organized.pcd", ""},
+                                         {"terrain", data + "/terrain_csite1_utm.pcd", ""}};
+  nlohmann::json all = nlohmann::json::array();
+  for (const auto& spec : inputs)
+  {
+    if (!only.empty() && std::find(only.begin(), only.end(), spec.name) == only.end())
+      continue;
+    const Cloud::Ptr cloud = loadFinite(spec.file);
+    const std::string finite_path = workdir + "/" + spec.name + "_input.pcd";
+    pcl::io::savePCDFileBinary(finite_path, *cloud);
+    pcl_ecs::eval::TriangleMesh mesh;
+    if (!spec.mesh.empty())
+    {
+      pcl::PolygonMesh pm;
+      pcl::io::loadPLYFile(spec.mesh, pm);
+      Cloud v;
+      pcl::fromPCLPointCloud2(pm.cloud, v);
+      for (const auto& p : v)
+        mesh.vertices.emplace_back(p.x, p.y, p.z);
+      for (const auto& poly : pm.polygons)
+        mesh.triangles.emplace_back(poly.vertices[0], poly.vertices[1], poly.vertices[2]);
+    }
+    Eigen::Vector4f lo, hi;
+    pcl::getMinMax3D(*cloud, lo, hi);
+    const double L = (hi - lo).head<3>().norm();
+    for (const double ratio : ratios)
+    {
+      const auto n = cloud->size();
+      const auto want = static_cast<std::size_t>(std::llround(ratio * static_cast<double>(n)));
+      std::printf("\n### %s: %zu points, %.0f%% = %zu\n\n", spec.name.c_str(), n, 100 * ratio, want);
+      std::printf("| method | size | time s | peak MiB | surface RMS | surface p99 | coverage mean | coverage max | Hausdorff | edge mean | edge p90 |\n");
+      std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+      nlohmann::json entry = {{"input", spec.name}, {"points", n}, {"ratio", ratio}, {"target", want},
+                              {"methods", nlohmann::json::array()}};
+      for (const auto& m : kMethods)
+      {
+        // The parameter for the size (untimed, in this process).
+        double p = 0;
+        if (m == "pcl_ecs")
+        {
+          pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> f;
+          f.setTargetSize(want);
+          f.setInputCloud(cloud);
+          Cloud tmp;
+          f.filter(tmp);
+          p = f.getResult().summary.error_threshold;
+        }
+        else if (m == "voxel_grid" || m == "uniform_sampling" || m == "cgal_grid")
+          p = searchParameter(L * 1e-5, L * 0.5, want, [&](double x) { return runMethod(m, cloud, x, want).size(); });
+        else if (m == "cgal_hierarchy")
+          p = std::round(searchParameter(1.0, 2000.0, want, [&](double x) { return runMethod(m, cloud, std::round(x), want).size(); }, 24));
+        const std::string out_file = workdir + "/" + spec.name + "_" + m + ".pcd";
+        std::filesystem::remove(out_file);
+        std::ostringstream extra;
+        extra << " --write '" << out_file << "'";
+        Measure meas;
+        nlohmann::json j = {{"method", m}, {"label", label(m)}, {"parameter", p}};
+        try
+        {
+          meas = runChild({"--input", finite_path, "--target", std::to_string(want)}, m, p, extra.str());
+        }
+        catch (const std::exception& e)
+        {
+          j["error"] = e.what();
+          entry["methods"].push_back(j);
+          std::printf("| %s | failed | | | | | | | | | |\n", label(m).c_str());
+          continue;
+        }
+        Cloud simplified;
+        pcl::io::loadPCDFile(out_file, simplified);
+        pcl_ecs::eval::QualityMetrics q;
+        pcl_ecs::eval::evaluateQuality(*cloud, simplified, mesh.triangles.empty() ? nullptr : &mesh, q);
+        j.update({{"size", meas.size},
+                  {"seconds", meas.seconds},
+                  {"peak_extra_mib", meas.peak_extra_mib},
+                  {"surface_rms", q.surface_rms},
+                  {"surface_p99", q.surface_p99},
+                  {"coverage_mean", q.coverage_mean},
+                  {"coverage_max", q.coverage_max},
+                  {"hausdorff", q.hausdorff},
+                  {"has_mesh", q.has_mesh},
+                  {"mesh_mean", q.mesh_mean},
+                  {"mesh_max", q.mesh_max},
+                  {"edge_mean", q.edge_mean},
+                  {"edge_p90", q.edge_p90}});
+        entry["methods"].push_back(j);
+        if (q.has_mesh)
+          std::printf("| %s | %zu | %.3f | %.1f | %.2e | %.2e | %.2e | %.2e | %.2e | %.2e | %.2e |\n", label(m).c_str(),
+                      meas.size, meas.seconds, meas.peak_extra_mib, q.surface_rms, q.surface_p99, q.coverage_mean,
+                      q.coverage_max, q.hausdorff, q.edge_mean, q.edge_p90);
+        else
+          std::printf("| %s | %zu | %.3f | %.1f | %.2e | %.2e | %.2e | %.2e | %.2e | | |\n", label(m).c_str(), meas.size,
+                      meas.seconds, meas.peak_extra_mib, q.surface_rms, q.surface_p99, q.coverage_mean, q.coverage_max,
+                      q.hausdorff);
+        std::fflush(stdout);
+      }
+      all.push_back(entry);
+      std::ofstream(out_path) << all.dump(2) << "\n";  // after every block: a long run keeps what it did
+    }
+  }
+  return 0;
+}
