@@ -384,6 +384,38 @@ TEST(Filter, TargetSizeWithinOnePercent)
   }
 }
 
+TEST(Filter, TargetCapFollowsTheTargetAndFallsBackNearTheInputSize)
+{
+  auto cloud = loadShared("bunny.pcd");
+  const std::size_t n = cloud->size();
+  // 10%: the cap is 2.5 × the spacing the target implies, and the size is reached with it.
+  {
+    Filter f;
+    f.setTargetSize(n / 10);
+    const Cloud out = run(cloud, f);
+    const auto& s = f.getResult().summary;
+    EXPECT_NEAR(static_cast<double>(out.size()), n / 10.0, 0.01 * n / 10.0);
+    const double balls_wanted = static_cast<double>(n / 10) - static_cast<double>(s.feature_points);
+    const double implied = std::sqrt(static_cast<double>(n - s.feature_points) / (16.0 * balls_wanted));
+    EXPECT_NEAR(s.radius_cap_factor, 2.5 * implied, 1e-12);
+    // Off: the plain cap.
+    Filter g;
+    g.setTargetSize(n / 10);
+    g.setTargetRadiusCap(0.0);
+    run(cloud, g);
+    EXPECT_DOUBLE_EQ(g.getResult().summary.radius_cap_factor, 5.0);
+  }
+  // 80%: the target cap (0.7 neighbourhood radii) is too tight to merge enough points; the search
+  // falls back to the plain cap and still lands within 1%.
+  {
+    Filter f;
+    f.setTargetSize(n * 8 / 10);
+    const Cloud out = run(cloud, f);
+    EXPECT_NEAR(static_cast<double>(out.size()), 0.8 * n, 0.01 * 0.8 * n);
+    EXPECT_DOUBLE_EQ(f.getResult().summary.radius_cap_factor, 5.0);
+  }
+}
+
 TEST(Filter, FeatureRepresentativeLabelsAndUtmCoordinates)
 {
   auto cloud = loadShared("terrain_csite1_utm.pcd");

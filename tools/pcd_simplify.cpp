@@ -309,6 +309,8 @@ nlohmann::json statsJson(const Options& o, const RunOutput& run, const pcl::PCLP
                      {"adaptive", p.adaptive},
                      {"adaptive_factor", p.adaptive_factor},
                      {"radius_cap_factor", p.radius_cap_factor},
+                     {"target_radius_cap", p.target_radius_cap},
+                     {"radius_cap_factor_used", s.radius_cap_factor},
                      {"seed", p.seed},
                      {"threads", p.threads},
                      {"use_input_normals", p.use_input_normals},

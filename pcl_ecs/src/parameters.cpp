@@ -51,6 +51,8 @@ std::string validate(const Parameters& p)
   if (!(std::isfinite(p.radius_cap_factor) && p.radius_cap_factor > 0.0 &&
         p.radius_cap_factor <= 1000.0))
     return bad("radius_cap_factor", p.radius_cap_factor, "in (0, 1000]");
+  if (!(std::isfinite(p.target_radius_cap) && p.target_radius_cap >= 0.0 && p.target_radius_cap <= 1000.0))
+    return bad("target_radius_cap", p.target_radius_cap, "0 (off) or in (0, 1000]");
   if (p.threads < 0 || p.threads > 1024)
     return bad("threads", p.threads, "an integer in [0, 1024] (0 = all hardware threads)");
   if (p.error_form != ErrorForm::Normalized && p.error_form != ErrorForm::Paper)

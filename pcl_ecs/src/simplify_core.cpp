@@ -184,6 +184,7 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
   if (params.target_size == 0)
   {
     s.error_threshold = params.error_threshold;
+    s.radius_cap_factor = params.radius_cap_factor;
     runCover(in, params, s.error_threshold, out.cover);
     s.target_iterations = 1;
   }
@@ -192,13 +193,22 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
     // Search T_err (log scale) for |features + balls - target| <= 1% of target, or the closest.
     const double target = static_cast<double>(params.target_size);
     const double balls_wanted = target - static_cast<double>(s.feature_points);
+    // The radius cap follows the target (Parameters::target_radius_cap).
+    Parameters cover_params = params;
+    if (params.target_radius_cap > 0.0 && balls_wanted >= 1.0)
+    {
+      const double nonfeature = static_cast<double>(cloud.size() - s.feature_points);
+      const double implied = std::sqrt(nonfeature / (static_cast<double>(params.k_neighbors) * balls_wanted));
+      cover_params.radius_cap_factor = std::min(1000.0, std::max(1e-3, params.target_radius_cap * implied));
+    }
+    s.radius_cap_factor = cover_params.radius_cap_factor;
     auto distance = [&](std::size_t balls) {
       return std::abs(static_cast<double>(s.feature_points + balls) - target);
     };
     double best_distance = std::numeric_limits<double>::infinity();
     CoverOutput trial;
     auto attempt = [&](double terr) {
-      const std::size_t balls = runCover(in, params, terr, trial);
+      const std::size_t balls = runCover(in, cover_params, terr, trial);
       ++s.target_iterations;
       report("cover", std::min(1.0, s.target_iterations / 40.0));
       if (distance(balls) < best_distance)
@@ -210,40 +220,53 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
       return static_cast<double>(balls);
     };
     const double lowest = 1e-12, highest = 0.999;
-    double lo = std::min(std::max(params.error_threshold, lowest), highest);  // T giving too many
-    double hi = lo;                                                           // T giving too few
-    double balls = attempt(lo);
     const double tol = 0.01 * target;
-    if (std::abs(balls - balls_wanted) > tol)
-    {
-      if (balls > balls_wanted)
+    auto search = [&]() {
+      double lo = std::min(std::max(params.error_threshold, lowest), highest);  // T giving too many
+      double hi = lo;                                                           // T giving too few
+      const double before = best_distance;
+      double balls = attempt(lo);
+      if (std::abs(balls - balls_wanted) > tol)
       {
-        // Raise T until too few points.
-        while (balls > balls_wanted && hi < highest && best_distance > tol)
+        if (balls > balls_wanted)
         {
-          lo = hi;
-          hi = std::min(hi * 4.0, highest);
-          balls = attempt(hi);
+          // Raise T until too few points.
+          while (balls > balls_wanted && hi < highest && best_distance > tol)
+          {
+            lo = hi;
+            hi = std::min(hi * 4.0, highest);
+            balls = attempt(hi);
+          }
         }
-      }
-      else
-      {
-        while (balls < balls_wanted && lo > lowest && best_distance > tol)
-        {
-          hi = lo;
-          lo = std::max(lo / 4.0, lowest);
-          balls = attempt(lo);
-        }
-      }
-      for (int it = 0; it < 40 && best_distance > tol && hi / lo > 1.0 + 1e-9; ++it)
-      {
-        const double mid = std::sqrt(lo * hi);
-        const double b = attempt(mid);
-        if (b > balls_wanted)
-          lo = mid;
         else
-          hi = mid;
+        {
+          while (balls < balls_wanted && lo > lowest && best_distance > tol)
+          {
+            hi = lo;
+            lo = std::max(lo / 4.0, lowest);
+            balls = attempt(lo);
+          }
+        }
+        for (int it = 0; it < 40 && best_distance > tol && hi / lo > 1.0 + 1e-9; ++it)
+        {
+          const double mid = std::sqrt(lo * hi);
+          const double b = attempt(mid);
+          if (b > balls_wanted)
+            lo = mid;
+          else
+            hi = mid;
+        }
       }
+      return best_distance < before;
+    };
+    search();
+    if (best_distance > tol && cover_params.radius_cap_factor < params.radius_cap_factor)
+    {
+      // The target cap was too tight to reach the size (targets close to the input size): search
+      // again with the plain cap and keep the closer result.
+      cover_params.radius_cap_factor = params.radius_cap_factor;
+      if (search())
+        s.radius_cap_factor = params.radius_cap_factor;
     }
   }
   s.timings.cover = secondsSince(t);

@@ -69,6 +69,8 @@ bool applyFilterFlag(const std::string& flag, const std::function<std::string()>
     p.adaptive_factor = parseDoubleFlag(flag, value());
   else if (flag == "--radius-cap")
     p.radius_cap_factor = parseDoubleFlag(flag, value());
+  else if (flag == "--target-cap")
+    p.target_radius_cap = parseDoubleFlag(flag, value());
   else if (flag == "--seed")
     p.seed = parseUnsignedFlag(flag, value());
   else if (flag == "--threads")
@@ -110,7 +112,9 @@ std::string filterFlagsHelp()
      << "); same seed, same output\n"
      << "  --threads N         worker threads, 0 = all (default 0); the output does not depend on it\n"
      << "  --use-input-normals use the input's normals instead of estimating them\n"
-     << "  --target-size N     aim at N output points (searches T_err; within 1% or the closest)\n";
+     << "  --target-size N     aim at N output points (searches T_err; within 1% or the closest)\n"
+     << "  --target-cap C      with a target size, the radius cap is C × the spacing the target implies\n"
+     << "                      instead of --radius-cap; 0 = use --radius-cap (default " << d.target_radius_cap << ")\n";
   return os.str();
 }
 

@@ -74,6 +74,10 @@ public:
    * neighbours), in (0, 1000]. Default 5. */
   void setRadiusCapFactor(double factor) { params_.radius_cap_factor = factor; }
   double getRadiusCapFactor() const { return params_.radius_cap_factor; }
+  /** \brief With a target size: radius cap = factor × the spacing the target implies (0: use the
+   * radius cap factor). */
+  void setTargetRadiusCap(double factor) { params_.target_radius_cap = factor; }
+  double getTargetRadiusCap() const { return params_.target_radius_cap; }
 
   /** \brief Seed of the centre order. Default 42 (fixed, never the clock). */
   void setSeed(std::uint64_t seed) { params_.seed = seed; }

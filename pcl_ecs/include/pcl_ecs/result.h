@@ -59,6 +59,7 @@ struct Summary
   double feature_threshold = 0;      ///< δ of eq. 4 (input units)
   double mean_spacing = 0;           ///< mean of eq. 5 (input units)
   double neighborhood_radius = 0;    ///< mean of sqrt(a_i) (eq. 1): the radius cap's unit
+  double radius_cap_factor = 0;      ///< the cap used, in neighbourhood radii (follows the target in target mode)
   double mean_abs_curvature = 0;     ///< mean |H| of eq. 12 (1 / input units)
   double bbox_diagonal = 0;          ///< L
   double error_threshold = 0;        ///< T_err used (the one found, in target-size mode)

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# What the radius cap does to the coverage bar: pcl_ecs at 10% and 3% of the bunny and the fandisk
+# with --radius-cap 5 (default), 3 and 2, measured with pcl_ecs_eval. Writes
+# bench/results/cap_experiment.md (quality only, so it can run on a busy machine).
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(dirname "$here")
+build=${BUILD_DIR:-$root/build}
+data=${PCL_ECS_SHARED_DATA_DIR:-$root/../shared/data}
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+out=$here/results/cap_experiment.md
+{
+  echo "| input | target | radius cap | output points | surface RMS | coverage max | edge mean |"
+  echo "| --- | --- | --- | --- | --- | --- | --- |"
+  for pair in bunny:bunny_mesh fandisk_scan:fandisk_mesh; do
+    cloud=${pair%%:*}
+    mesh=${pair##*:}
+    for ratio in 0.1 0.03; do
+      for cap in 5 3 2 target; do
+        "$build/tools/pcd_simplify" "$data/$cloud.pcd" "$tmp/s.pcd" --target-ratio "$ratio" $( [ "$cap" = target ] && echo "--target-cap 2.5" || echo "--radius-cap $cap --target-cap 0") -q
+        "$build/tools/pcl_ecs_eval" "$data/$cloud.pcd" "$tmp/s.pcd" --mesh "$data/$mesh.ply" --json > "$tmp/e.json"
+        python3 - "$cloud" "$ratio" "$cap" "$tmp/e.json" <<'PY'
+import json, sys
+c, r, cap, f = sys.argv[1:]
+j = json.load(open(f))
+print(f"| {c} | {float(r):.0%} | {cap} | {j['simplified_points']} | {j['surface_rms']:.2e} | {j['coverage_max']:.2e} | {j['edge_mean']:.2e} |")
+PY
+      done
+    done
+  done
+} > "$out"
+cat "$out"
