@@ -93,13 +93,16 @@ Cloud fromCgal(const std::vector<K::Point_3>& v)
 }
 
 /// One method at one parameter; `target` is for the methods that take a count.
-Cloud runMethod(const std::string& m, const Cloud::Ptr& in, double param, std::size_t target)
+Cloud runMethod(const std::string& m, const Cloud::Ptr& in, double param, std::size_t target, double cap = 0)
 {
   Cloud out;
   if (m == "pcl_ecs")
   {
+    // The T_err and radius cap that the target-size search found (in the parent, untimed).
     pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> f;
     f.setErrorThreshold(param);
+    if (cap > 0)
+      f.setRadiusCapFactor(cap);
     f.setInputCloud(in);
     f.filter(out);
   }
@@ -197,7 +200,7 @@ int main(int argc, char** argv)
 {
   std::string data = "../shared/data", out_path = "peers.json", workdir = "/tmp/pcl_ecs_peers", input, write;
   std::string child;
-  double param = 0;
+  double param = 0, cap = 0;
   std::size_t target = 0;
   std::vector<double> ratios = {0.10, 0.03};
   std::vector<std::string> only;
@@ -234,6 +237,8 @@ int main(int argc, char** argv)
     }
     else if (a == "--write")
       write = next();
+    else if (a == "--cap")
+      cap = std::stod(next());
     else
     {
       std::fprintf(stderr, "bench_peers: unknown argument %s\n", a.c_str());
@@ -247,7 +252,7 @@ int main(int argc, char** argv)
     pcl::io::loadPCDFile(input, *in);
     Cloud out;
     const Measure m = measureHere([&] {
-      out = runMethod(child, in, param, target);
+      out = runMethod(child, in, param, target, cap);
       return out.size();
     });
     if (!write.empty() && !out.empty())
@@ -297,7 +302,7 @@ int main(int argc, char** argv)
       for (const auto& m : kMethods)
       {
         // The parameter for the size (untimed, in this process).
-        double p = 0;
+        double p = 0, cap_used = 0;
         if (m == "pcl_ecs")
         {
           pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> f;
@@ -306,6 +311,7 @@ int main(int argc, char** argv)
           Cloud tmp;
           f.filter(tmp);
           p = f.getResult().summary.error_threshold;
+          cap_used = f.getResult().summary.radius_cap_factor;
         }
         else if (m == "voxel_grid" || m == "uniform_sampling" || m == "cgal_grid")
           p = searchParameter(L * 1e-5, L * 0.5, want, [&](double x) { return runMethod(m, cloud, x, want).size(); });
@@ -314,9 +320,14 @@ int main(int argc, char** argv)
         const std::string out_file = workdir + "/" + spec.name + "_" + m + ".pcd";
         std::filesystem::remove(out_file);
         std::ostringstream extra;
+        extra.precision(17);
         extra << " --write '" << out_file << "'";
+        if (cap_used > 0)
+          extra << " --cap " << cap_used;
         Measure meas;
         nlohmann::json j = {{"method", m}, {"label", label(m)}, {"parameter", p}};
+        if (cap_used > 0)
+          j["radius_cap_factor"] = cap_used;
         try
         {
           meas = runChild({"--input", finite_path, "--target", std::to_string(want)}, m, p, extra.str());

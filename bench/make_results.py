@@ -182,6 +182,19 @@ def main():
              "Hausdorff, and with the reference mesh the distance from points sampled along its sharp edges",
              "(dihedral above 40°) to the nearest simplified point. Lower is better everywhere.",
              ""]
+    lines += ["## The bar, in one table", "",
+              "| input | size | sharp edges (lowest; fandisk −30%) | surface deviation (≤ 1.05 × best) | coverage max (≤ 1.5 × best) | faster than hierarchy | faster than WLOP |",
+              "| --- | --- | --- | --- | --- | --- | --- |"]
+    for e in entries:
+        v = verdict(e)
+        def pick(prefix):
+            for x in v:
+                if x.startswith(prefix):
+                    return "met" if ("**met**" in x or "**faster**" in x) else "**no**"
+            return "n/a (no reference mesh)"
+        lines.append(f"| {e['input']} | {100 * e['ratio']:.0f}% | {pick('sharp-edge')} | {pick('surface')} | {pick('coverage')} | "
+                     f"{pick('time against CGAL hierarchy')} | {pick('time against CGAL WLOP')} |")
+    lines.append("")
     for e in entries:
         lines += [f"## {e['input']}: {e['points']} points → {100 * e['ratio']:.0f}% ({e['target']})", "", table(e), ""]
         lines += [f"- {v}" for v in verdict(e)] + [""]

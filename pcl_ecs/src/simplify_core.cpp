@@ -260,13 +260,13 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
       return best_distance < before;
     };
     search();
-    if (best_distance > tol && cover_params.radius_cap_factor < params.radius_cap_factor)
+    while (best_distance > tol && cover_params.radius_cap_factor < params.radius_cap_factor)
     {
-      // The target cap was too tight to reach the size (targets close to the input size): search
-      // again with the plain cap and keep the closer result.
-      cover_params.radius_cap_factor = params.radius_cap_factor;
+      // The target cap was too tight to reach the size (targets close to the input size): widen it
+      // step by step up to the plain cap, keeping the closest result.
+      cover_params.radius_cap_factor = std::min(params.radius_cap_factor, 1.5 * cover_params.radius_cap_factor);
       if (search())
-        s.radius_cap_factor = params.radius_cap_factor;
+        s.radius_cap_factor = cover_params.radius_cap_factor;
     }
   }
   s.timings.cover = secondsSince(t);

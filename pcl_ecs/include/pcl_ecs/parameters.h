@@ -68,8 +68,9 @@ struct Parameters
   /** \brief In target-size mode only: the radius cap follows the target, at this many times the
    * spacing the target implies for the balls (the mean neighbourhood radius × sqrt(non-feature
    * points / (K × balls wanted))), instead of radius_cap_factor. Balls then stay comparable to the
-   * output spacing: coverage and surface deviation improve (docs/RESULTS.md). 0 keeps
-   * radius_cap_factor. Range: 0 or (0, 1000]. Default 2.5. */
+   * output spacing: coverage and surface deviation improve (docs/RESULTS.md). When the size cannot
+   * be reached with it (targets close to the input size), the cap is widened in ×1.5 steps up to
+   * radius_cap_factor. 0 keeps radius_cap_factor. Range: 0 or (0, 1000]. Default 2.5. */
   double target_radius_cap = 2.5;
 
   /** \brief Seed of the order in which ball centres are picked (step 3). Same seed, same input,
