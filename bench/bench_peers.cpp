@@ -5,7 +5,7 @@
 // there); the parent measures the quality of what it wrote with the pcl_ecs_eval metrics.
 //
 //   bench_peers --data ../shared/data --out bench/results/peers.json [--ratios 0.1,0.03]
-//               [--inputs bunny,fandisk] [--workdir DIR]
+//               [--inputs bunny,fandisk] [--workdir DIR] [--methods pcl_ecs]  (rerun some, merge into OUT)
 #include "bench_common.h"
 
 #include <pcl_ecs/eval/quality_metrics.h>
@@ -203,7 +203,8 @@ int main(int argc, char** argv)
   double param = 0, cap = 0;
   std::size_t target = 0;
   std::vector<double> ratios = {0.10, 0.03};
-  std::vector<std::string> only;
+  std::vector<std::string> only, methods = kMethods;
+  bool merge = false;
   for (int i = 1; i < argc; ++i)
   {
     const std::string a = argv[i];
@@ -226,6 +227,12 @@ int main(int argc, char** argv)
     }
     else if (a == "--inputs")
       only = split(next());
+    else if (a == "--methods")
+    {
+      // Rerun only these methods and merge them into the existing OUT (the others' rows are kept).
+      methods = split(next());
+      merge = true;
+    }
     else if (a == "--input")
       input = next();
     else if (a == "--target")
@@ -268,6 +275,9 @@ int main(int argc, char** argv)
                                          {"mug", data + "/table_scene_mug_organized.pcd", ""},
                                          {"terrain", data + "/terrain_csite1_utm.pcd", ""}};
   nlohmann::json all = nlohmann::json::array();
+  nlohmann::json previous = nlohmann::json::array();
+  if (merge && std::filesystem::exists(out_path))
+    previous = nlohmann::json::parse(std::ifstream(out_path));
   for (const auto& spec : inputs)
   {
     if (!only.empty() && std::find(only.begin(), only.end(), spec.name) == only.end())
@@ -301,6 +311,16 @@ int main(int argc, char** argv)
                               {"methods", nlohmann::json::array()}};
       for (const auto& m : kMethods)
       {
+        if (std::find(methods.begin(), methods.end(), m) == methods.end())
+        {
+          // Not rerun: the previous row, if any.
+          for (const auto& e : previous)
+            if (e["input"] == spec.name && std::abs(e["ratio"].get<double>() - ratio) < 1e-12)
+              for (const auto& row : e["methods"])
+                if (row["method"] == m)
+                  entry["methods"].push_back(row);
+          continue;
+        }
         // The parameter for the size (untimed, in this process).
         double p = 0, cap_used = 0;
         if (m == "pcl_ecs")

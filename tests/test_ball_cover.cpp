@@ -89,3 +89,35 @@ TEST(BallCover, SeedChangesTheOrderButNotTheCoverage)
   EXPECT_NEAR(static_cast<double>(ra.out.balls.size()), static_cast<double>(rb.out.balls.size()),
               0.1 * ra.out.balls.size());
 }
+
+TEST(BallCover, RepresentativeOffsetIsBounded)
+{
+  // On a noisy cube the optimised points wander; with the paper's rule (1) some sit farther than
+  // half the radius from their centre, with the default (0.5) none does: those balls use c.
+  auto cloud = cubeSurface(30, 1.0, 0.004, 3);
+  for (const double limit : {1.0, 0.5, 0.25})
+  {
+    pcl_ecs::Parameters p;
+    p.max_representative_offset = limit;
+    CoverRun run(cloud, p, 2e-3);
+    std::size_t beyond_half = 0, centre_used = 0;
+    for (const auto& b : run.out.balls)
+    {
+      const Eigen::Vector3d c = (*cloud)[static_cast<std::size_t>(b.centre)].getVector3fMap().cast<double>();
+      const double offset = (b.representative - c).norm();
+      if (b.used_centre)
+      {
+        EXPECT_LT(offset, 1e-9);
+        ++centre_used;
+      }
+      else
+        EXPECT_LT(offset, limit * b.radius + 1e-9);
+      beyond_half += offset > 0.5 * b.radius + 1e-9 ? 1 : 0;
+    }
+    if (limit == 1.0)
+      EXPECT_GT(beyond_half, 0u) << "the test shape must exercise the rule";
+    else
+      EXPECT_EQ(beyond_half, 0u);
+    RecordProperty("centre_used_" + std::to_string(limit), static_cast<int>(centre_used));
+  }
+}

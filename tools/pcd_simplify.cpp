@@ -310,6 +310,7 @@ nlohmann::json statsJson(const Options& o, const RunOutput& run, const pcl::PCLP
                      {"adaptive_factor", p.adaptive_factor},
                      {"radius_cap_factor", p.radius_cap_factor},
                      {"target_radius_cap", p.target_radius_cap},
+                     {"max_representative_offset", p.max_representative_offset},
                      {"radius_cap_factor_used", s.radius_cap_factor},
                      {"seed", p.seed},
                      {"threads", p.threads},

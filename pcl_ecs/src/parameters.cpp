@@ -53,6 +53,9 @@ std::string validate(const Parameters& p)
     return bad("radius_cap_factor", p.radius_cap_factor, "in (0, 1000]");
   if (!(std::isfinite(p.target_radius_cap) && p.target_radius_cap >= 0.0 && p.target_radius_cap <= 1000.0))
     return bad("target_radius_cap", p.target_radius_cap, "0 (off) or in (0, 1000]");
+  if (!(std::isfinite(p.max_representative_offset) && p.max_representative_offset > 0.0 &&
+        p.max_representative_offset <= 1.0))
+    return bad("max_representative_offset", p.max_representative_offset, "in (0, 1]");
   if (p.threads < 0 || p.threads > 1024)
     return bad("threads", p.threads, "an integer in [0, 1024] (0 = all hardware threads)");
   if (p.error_form != ErrorForm::Normalized && p.error_form != ErrorForm::Paper)

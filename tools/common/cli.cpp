@@ -69,6 +69,8 @@ bool applyFilterFlag(const std::string& flag, const std::function<std::string()>
     p.adaptive_factor = parseDoubleFlag(flag, value());
   else if (flag == "--radius-cap")
     p.radius_cap_factor = parseDoubleFlag(flag, value());
+  else if (flag == "--rep-offset")
+    p.max_representative_offset = parseDoubleFlag(flag, value());
   else if (flag == "--target-cap")
     p.target_radius_cap = parseDoubleFlag(flag, value());
   else if (flag == "--seed")
@@ -108,6 +110,8 @@ std::string filterFlagsHelp()
      << "  --adapt-factor F    adaptation factor, in [1, 100] (default " << d.adaptive_factor << ")\n"
      << "  --radius-cap C      largest ball radius, in mean neighbourhood radii, in (0, 1000]\n"
      << "                      (default " << d.radius_cap_factor << ")\n"
+     << "  --rep-offset F      the optimised point stands for its ball when within F × r of the centre,\n"
+     << "                      else the centre; the paper's rule is 1; in (0, 1] (default " << d.max_representative_offset << ")\n"
      << "  --seed S            seed of the centre order (default " << d.seed
      << "); same seed, same output\n"
      << "  --threads N         worker threads, 0 = all (default 0); the output does not depend on it\n"

@@ -74,6 +74,10 @@ public:
    * neighbours), in (0, 1000]. Default 5. */
   void setRadiusCapFactor(double factor) { params_.radius_cap_factor = factor; }
   double getRadiusCapFactor() const { return params_.radius_cap_factor; }
+  /** \brief The optimised point stands for its ball when within this fraction of the radius of
+   * the centre, else the centre (the paper: 1). */
+  void setMaxRepresentativeOffset(double fraction) { params_.max_representative_offset = fraction; }
+  double getMaxRepresentativeOffset() const { return params_.max_representative_offset; }
   /** \brief With a target size: radius cap = factor × the spacing the target implies (0: use the
    * radius cap factor). */
   void setTargetRadiusCap(double factor) { params_.target_radius_cap = factor; }

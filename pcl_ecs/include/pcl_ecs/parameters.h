@@ -73,6 +73,13 @@ struct Parameters
    * radius_cap_factor. 0 keeps radius_cap_factor. Range: 0 or (0, 1000]. Default 2.5. */
   double target_radius_cap = 2.5;
 
+  /** \brief The ball's optimised point x_min is its representative when it lies within this
+   * fraction of the radius from the centre; otherwise the centre is. The paper's rule is 1 (inside
+   * the ball). Range: (0, 1]. Default 0.5: an optimised point near the rim leaves the far side of the
+   * ball uncovered; bounding it lowers the coverage distance by a sixth to a third and, on the
+   * fandisk, the surface deviation too (docs/RESULTS.md). */
+  double max_representative_offset = 0.5;
+
   /** \brief Seed of the order in which ball centres are picked (step 3). Same seed, same input,
    * same parameters: the same output bit for bit, whatever the thread count. */
   std::uint64_t seed = 42;

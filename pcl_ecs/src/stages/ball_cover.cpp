@@ -94,7 +94,9 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
   if (sol.radius > 0.0)
     w.typical_radius = 0.9 * w.typical_radius + 0.1 * sol.radius;
 
-  ball.used_centre = !(sol.x_min.norm() < sol.radius);
+  // The optimised point, unless it lies farther than max_representative_offset × r from c (the
+  // paper's rule is r itself: outside the ball means a sharp feature, and c stands for it).
+  ball.used_centre = !(sol.x_min.norm() < params.max_representative_offset * sol.radius);
   const Eigen::Vector3d v_offset = ball.used_centre ? Eigen::Vector3d::Zero() : sol.x_min;
   ball.representative = centre + v_offset;
 
