@@ -57,7 +57,7 @@ def verdict(entry):
         need = 0.30 if entry["input"] == "fandisk" else 0.0
         ok = margin > need if need > 0 else ours["edge_mean"] < best["edge_mean"]
         out.append(f"sharp-edge distance: {fmt(ours['edge_mean'])} vs best peer {best['label']} {fmt(best['edge_mean'])} "
-                   f"({100 * margin:+.0f}%{', needs -30%' if need else ''}): **{'met' if ok else 'NOT met'}**")
+                   f"({100 * margin:.0f}% {'below' if margin >= 0 else 'above'}{', needs 30% below' if need else ''}): **{'met' if ok else 'NOT met'}**")
     best = min(peers, key=lambda m: m["surface_rms"])
     ratio = ours["surface_rms"] / best["surface_rms"]
     out.append(f"surface deviation: {fmt(ours['surface_rms'])} vs best peer {best['label']} {fmt(best['surface_rms'])} "
