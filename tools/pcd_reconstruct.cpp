@@ -50,12 +50,6 @@ Examples:
   pcd_reconstruct range_view.pcd view.obj --stats view.json
 )";
 
-struct ToolError : std::runtime_error
-{
-  ToolError(int c, const std::string& what) : std::runtime_error(what), code(c) {}
-  int code;
-};
-
 int run(int argc, char** argv)
 {
   surface::CoconeParameters params;
@@ -165,28 +159,5 @@ int run(int argc, char** argv)
 
 int main(int argc, char** argv)
 {
-  try
-  {
-    return run(argc, argv);
-  }
-  catch (const UsageError& e)
-  {
-    std::fprintf(stderr, "pcd_reconstruct: %s\n", e.what());
-    return kExitUsage;
-  }
-  catch (const ToolError& e)
-  {
-    std::fprintf(stderr, "pcd_reconstruct: %s\n", e.what());
-    return e.code;
-  }
-  catch (const std::bad_alloc&)
-  {
-    std::fprintf(stderr, "pcd_reconstruct: out of memory\n");
-    return kExitInternal;
-  }
-  catch (const std::exception& e)
-  {
-    std::fprintf(stderr, "pcd_reconstruct: internal error: %s\n", e.what());
-    return kExitInternal;
-  }
+  return runToolMain("pcd_reconstruct", [&] { return run(argc, argv); });
 }

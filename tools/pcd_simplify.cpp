@@ -6,6 +6,7 @@
 
 #include <pcl_ecs/feature_aware_cover_simplify.h>
 #include <pcl_ecs/io/cloud_io.h>
+#include <pcl_ecs/stream/out_of_core.h>
 #include <pcl_ecs/version.h>
 
 #include <cmath>
@@ -47,6 +48,19 @@ OUTPUT  .pcd (binary by default) or .ply. Colour, intensity, normals and labels 
 const char* kOptions = R"(Size instead of T_err:
   --target-ratio R    aim at R × the finite input points, R in (0, 1]
 
+Scans larger than memory (PCD in, binary PCD out; docs/STREAMING.md):
+  --stream            simplify out of core: the scan is split into tiles (with a halo of
+                      neighbours) in a scratch directory and processed tile by tile, two at a
+                      time; the statistics the method takes over the whole cloud stay global.
+                      Progress on stderr. Killed? Run the same command again: it resumes from
+                      the finished tiles. Takes --terr (not a target size); all fields of the
+                      input are kept. Output depends on --memory-limit (the tiling), not on
+                      --threads.
+  --memory-limit SIZE memory budget, e.g. 512M, 2G (default: a quarter of the RAM, >= 256M)
+  --scratch DIR       scratch directory (default OUTPUT.ecs-scratch); needs about 1.3 × the
+                      input's size; removed on success
+  --keep-scratch      keep the scratch directory after success
+
 Output:
   --ascii             write ASCII PCD / PLY
   --compressed        write binary_compressed PCD
@@ -76,6 +90,7 @@ Examples:
   pcd_simplify part.pcd out.pcd --alpha 4 --features edges.pcd --labels --stats run.json
   pcd_simplify kinect.pcd out.pcd --compressed         # organised RGB in, unorganised RGB out
   pcd_simplify bunny.pcd small.pcd --mesh small.ply     # simplify, then mesh the result
+  pcd_simplify survey.pcd small.pcd --stream --memory-limit 1G --scratch /data/tmp
 )";
 
 struct Options
@@ -86,13 +101,9 @@ struct Options
   double target_ratio = 0.0;
   io::Encoding encoding = io::Encoding::Binary;
   bool labels = false, quiet = false, verbose = false;
-};
-
-/// Thrown with an exit code and one line for the user.
-struct ToolError : std::runtime_error
-{
-  ToolError(int c, const std::string& what) : std::runtime_error(what), code(c) {}
-  int code;
+  bool stream = false, keep_scratch = false, encoding_given = false;
+  std::uint64_t memory_limit = 0, kill_after = 0;
+  std::string scratch;
 };
 
 Options parseArgs(int argc, char** argv, bool& done)
@@ -131,9 +142,31 @@ Options parseArgs(int argc, char** argv, bool& done)
         throw UsageError("--target-ratio: must be in (0, 1]");
     }
     else if (a == "--ascii")
+    {
       o.encoding = io::Encoding::Ascii;
+      o.encoding_given = true;
+    }
     else if (a == "--compressed")
+    {
       o.encoding = io::Encoding::BinaryCompressed;
+      o.encoding_given = true;
+    }
+    else if (a == "--stream")
+      o.stream = true;
+    else if (a == "--memory-limit")
+    {
+      const std::string v = value();
+      if (!stream::parseByteSize(v, o.memory_limit))
+        throw UsageError("--memory-limit: '" + v + "' is not a size (like 512M, 2G)");
+      if (o.memory_limit < (64ull << 20))
+        throw UsageError("--memory-limit: must be at least 64M");
+    }
+    else if (a == "--scratch")
+      o.scratch = value();
+    else if (a == "--keep-scratch")
+      o.keep_scratch = true;
+    else if (a == "--debug-kill-after")  // tests: SIGKILL after N tile steps
+      o.kill_after = parseUnsignedFlag(a, value());
     else if (a == "--features")
       o.features = value();
     else if (a == "--labels")
@@ -158,6 +191,20 @@ Options parseArgs(int argc, char** argv, bool& done)
   o.output = positional[1];
   if (o.target_ratio > 0.0 && o.params.target_size > 0)
     throw UsageError("--target-size and --target-ratio exclude each other");
+  if (o.stream)
+  {
+    if (o.target_ratio > 0.0 || o.params.target_size > 0)
+      throw UsageError("--stream takes --terr, not a target size (see docs/STREAMING.md)");
+    if (!o.features.empty() || o.labels || !o.mesh.empty() || o.encoding_given)
+      throw UsageError("--stream writes one binary PCD; --features, --labels, --mesh, --ascii and "
+                       "--compressed are for in-memory runs");
+    if (o.params.use_input_normals)
+      throw UsageError("--stream estimates the normals; --use-input-normals is for in-memory runs");
+    if (io::formatFromPath(o.input) != io::Format::Pcd || io::formatFromPath(o.output) != io::Format::Pcd)
+      throw UsageError("--stream reads and writes .pcd files");
+  }
+  else if (o.memory_limit || !o.scratch.empty() || o.keep_scratch || o.kill_after)
+    throw UsageError("--memory-limit, --scratch and --keep-scratch need --stream");
   const std::string why = validate(o.params);
   if (!why.empty())
     throw UsageError(why);
@@ -341,12 +388,104 @@ nlohmann::json statsJson(const Options& o, const RunOutput& run, const pcl::PCLP
   return j;
 }
 
+int runStream(const Options& o)
+{
+  stream::StreamOptions so;
+  so.memory_limit = o.memory_limit;
+  so.scratch_dir = o.scratch;
+  so.keep_scratch = o.keep_scratch;
+  so.kill_after_steps = o.kill_after;
+  if (!o.quiet)
+    so.progress = [](const std::string& line) { std::fprintf(stderr, "pcd_simplify: %s\n", line.c_str()); };
+  stream::StreamSummary s;
+  try
+  {
+    s = stream::simplifyOutOfCore(o.input, o.output, o.params, so);
+  }
+  catch (const io::FormatError& e)
+  {
+    throw ToolError(kExitInput, e.what());
+  }
+  catch (const io::FileError& e)
+  {
+    const bool is_output = std::string(e.what()).rfind(o.output, 0) == 0;
+    throw ToolError(is_output ? kExitOutput : kExitInput, e.what());
+  }
+  catch (const std::filesystem::filesystem_error& e)
+  {
+    throw ToolError(kExitOutput, std::string("scratch space: ") + e.what());
+  }
+  catch (const std::runtime_error& e)
+  {
+    const std::string what = e.what();
+    const bool input = what.rfind(o.input, 0) == 0;
+    throw ToolError(input ? kExitInput : kExitOutput, what);
+  }
+  if (!o.stats.empty())
+  {
+    io::AtomicOutput out(o.stats);
+    std::ofstream js(out.tempPath());
+    nlohmann::json j;
+    j["tool"] = "pcd_simplify --stream";
+    j["version"] = PCL_ECS_VERSION_STRING;
+    j["input"] = o.input;
+    j["output"] = o.output;
+    j["parameters"] = {{"error_threshold", o.params.error_threshold}, {"feature_factor", o.params.feature_factor},
+                       {"k_neighbors", o.params.k_neighbors},         {"seed", o.params.seed},
+                       {"memory_limit", o.memory_limit}};
+    j["counts"] = {{"input_points", s.input_points}, {"finite_points", s.finite_points},
+                   {"feature_points", s.feature_points}, {"balls", s.balls}, {"output_points", s.output_points}};
+    j["geometry"] = {{"bbox_diagonal", s.bbox_diagonal},         {"feature_threshold", s.feature_threshold},
+                     {"mean_spacing", s.mean_spacing},           {"neighborhood_radius", s.neighborhood_radius},
+                     {"mean_abs_curvature", s.mean_abs_curvature}, {"max_error", s.max_error},
+                     {"halo", s.halo}};
+    nlohmann::json tiles = nlohmann::json::array();
+    for (const auto& t : s.tiles)
+      tiles.push_back({{"lo", {t.lo[0], t.lo[1]}}, {"hi", {t.hi[0], t.hi[1]}}, {"core_points", t.core_points},
+                       {"halo_points", t.halo_points}, {"colour", t.colour}});
+    j["tiles"] = {{"axes", {s.axis_u, s.axis_v}}, {"tile_point_budget", s.tile_point_budget}, {"list", tiles},
+                  {"incomplete_neighbourhoods", s.incomplete_neighbourhoods},
+                  {"halo_too_narrow", s.halo_too_narrow}};
+    j["scratch_bytes"] = s.scratch_bytes;
+    j["resumed"] = s.resumed;
+    j["timings_s"] = {{"scan", s.stage_seconds[0]}, {"split", s.stage_seconds[1]}, {"phase_a", s.stage_seconds[2]},
+                      {"phase_b", s.stage_seconds[3]}, {"phase_c", s.stage_seconds[4]}, {"write", s.stage_seconds[5]},
+                      {"total", s.seconds}};
+    js << j.dump(2) << "\n";
+    js.flush();
+    if (!js)
+      throw ToolError(kExitOutput, o.stats + ": write error");
+    js.close();
+    out.commit();
+  }
+  if (!o.quiet)
+    std::printf("%s: %llu -> %llu points (%.2f%%): %llu features, %llu balls; T_err %.3g, max error %.3g L; "
+                "%zu tiles; %.2f s (%.2f M points/s)\n",
+                o.output.c_str(), static_cast<unsigned long long>(s.finite_points),
+                static_cast<unsigned long long>(s.output_points),
+                100.0 * static_cast<double>(s.output_points) / static_cast<double>(std::max<std::uint64_t>(1, s.finite_points)),
+                static_cast<unsigned long long>(s.feature_points), static_cast<unsigned long long>(s.balls),
+                o.params.error_threshold, s.max_error, s.tiles.size(), s.seconds,
+                static_cast<double>(s.input_points) / std::max(1e-9, s.seconds) / 1e6);
+  return kExitOk;
+}
+
 int runTool(int argc, char** argv)
 {
   bool done = false;
   const Options o = parseArgs(argc, argv, done);
   if (done)
     return kExitOk;
+  if (o.stream)
+  {
+    if (!o.stats.empty())
+    {
+      const std::string why = io::checkWritable(o.stats);
+      if (!why.empty())
+        throw ToolError(kExitOutput, o.stats + ": " + why);
+    }
+    return runStream(o);
+  }
   pcl::console::setVerbosityLevel(o.verbose ? pcl::console::L_INFO : pcl::console::L_ALWAYS);
 
   // Fail early on outputs that cannot be written, before any long work.
@@ -458,28 +597,5 @@ int runTool(int argc, char** argv)
 
 int main(int argc, char** argv)
 {
-  try
-  {
-    return runTool(argc, argv);
-  }
-  catch (const UsageError& e)
-  {
-    std::fprintf(stderr, "pcd_simplify: %s\n", e.what());
-    return kExitUsage;
-  }
-  catch (const ToolError& e)
-  {
-    std::fprintf(stderr, "pcd_simplify: %s\n", e.what());
-    return e.code;
-  }
-  catch (const std::bad_alloc&)
-  {
-    std::fprintf(stderr, "pcd_simplify: out of memory\n");
-    return kExitInternal;
-  }
-  catch (const std::exception& e)
-  {
-    std::fprintf(stderr, "pcd_simplify: internal error: %s\n", e.what());
-    return kExitInternal;
-  }
+  return runToolMain("pcd_simplify", [&] { return runTool(argc, argv); });
 }

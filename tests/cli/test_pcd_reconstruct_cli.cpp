@@ -1,5 +1,7 @@
 // Integration tests of pcd_reconstruct and pcd_simplify --mesh: meshes written in the three
 // formats and read back, topology of the results, every refusal with its exit code and no output.
+#include "cli_fixture.h"
+
 #include <pcl_ecs/surface/cocone.h>
 
 #include <sys/wait.h>
@@ -31,42 +33,13 @@ const std::string kReconstruct = PCD_RECONSTRUCT_PATH;
 const std::string kSimplify = PCD_SIMPLIFY_PATH;
 const std::string kShared = PCL_ECS_SHARED_DATA_DIR;
 
-struct RunResult
-{
-  int code = -1;
-  std::string out, err;
-};
+using pcl_ecs_test::RunResult;
+using pcl_ecs_test::slurp;
 
-std::string slurp(const std::string& p)
-{
-  std::ifstream in(p, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
-
-class MeshCli : public ::testing::Test
+class MeshCli : public pcl_ecs_test::TempDirTest
 {
 protected:
-  void SetUp() override
-  {
-    char tmpl[] = "/tmp/pcd_reconstruct_test_XXXXXX";
-    ASSERT_NE(::mkdtemp(tmpl), nullptr);
-    dir_ = tmpl;
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string path(const std::string& name) const { return (fs::path(dir_) / name).string(); }
-
-  RunResult run(const std::string& tool, const std::string& args) const
-  {
-    const std::string out = path(".stdout"), err = path(".stderr");
-    const int status = std::system((tool + " " + args + " > " + out + " 2> " + err).c_str());
-    RunResult r;
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = slurp(out);
-    r.err = slurp(err);
-    fs::remove(out);
-    fs::remove(err);
-    return r;
-  }
+  RunResult run(const std::string& tool, const std::string& args) const { return runTool(tool, args); }
 
   /// A sphere of n points as an .xyz file.
   std::string sphereXyz(const std::string& name, int n) const
@@ -89,8 +62,6 @@ protected:
     for (const auto& e : fs::directory_iterator(dir_))
       EXPECT_TRUE(names.count(e.path().filename().string())) << "left behind: " << e.path();
   }
-
-  std::string dir_;
 };
 
 MeshTopology plyTopology(const std::string& file, std::size_t* vertices = nullptr)

@@ -1,5 +1,7 @@
 // Integration tests of the pcd_simplify binary: real runs on the shared scans, the target-size
 // mode, attributes, the stats file, and every bad input with its exit code and no output left.
+#include "cli_fixture.h"
+
 #include <pcl_ecs/io/cloud_io.h>
 
 #include <sys/wait.h>
@@ -24,44 +26,13 @@ namespace
 const std::string kTool = PCD_SIMPLIFY_PATH;
 const std::string kShared = PCL_ECS_SHARED_DATA_DIR;
 
-struct RunResult
-{
-  int code = -1;
-  std::string out, err;
-};
+using pcl_ecs_test::RunResult;
+using pcl_ecs_test::slurp;
 
-class Cli : public ::testing::Test
+class Cli : public pcl_ecs_test::TempDirTest
 {
 protected:
-  void SetUp() override
-  {
-    char tmpl[] = "/tmp/pcd_simplify_test_XXXXXX";
-    ASSERT_NE(::mkdtemp(tmpl), nullptr);
-    dir_ = tmpl;
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  std::string path(const std::string& name) const { return (fs::path(dir_) / name).string(); }
-
-  RunResult run(const std::string& args) const
-  {
-    const std::string out = path(".stdout"), err = path(".stderr");
-    const std::string cmd = kTool + " " + args + " > " + out + " 2> " + err;
-    const int status = std::system(cmd.c_str());
-    RunResult r;
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = slurp(out);
-    r.err = slurp(err);
-    fs::remove(out);
-    fs::remove(err);
-    return r;
-  }
-
-  static std::string slurp(const std::string& p)
-  {
-    std::ifstream in(p, std::ios::binary);
-    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  }
+  RunResult run(const std::string& args) const { return runTool(kTool, args); }
 
   void write(const std::string& name, const std::string& content) const
   {
@@ -84,8 +55,6 @@ protected:
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line expected: " << r.err;
     expectNoOutput(inputs);
   }
-
-  std::string dir_;
 };
 
 pcl::PCLPointCloud2 load(const std::string& p)

@@ -153,5 +153,33 @@ void ProgressLine::finish()
   dirty_ = false;
 }
 
+int runToolMain(const char* tool, const std::function<int()>& body)
+{
+  try
+  {
+    return body();
+  }
+  catch (const UsageError& e)
+  {
+    std::fprintf(stderr, "%s: %s\n", tool, e.what());
+    return kExitUsage;
+  }
+  catch (const ToolError& e)
+  {
+    std::fprintf(stderr, "%s: %s\n", tool, e.what());
+    return e.code;
+  }
+  catch (const std::bad_alloc&)
+  {
+    std::fprintf(stderr, "%s: out of memory\n", tool);
+    return kExitInternal;
+  }
+  catch (const std::exception& e)
+  {
+    std::fprintf(stderr, "%s: internal error: %s\n", tool, e.what());
+    return kExitInternal;
+  }
+}
+
 }  // namespace tools
 }  // namespace pcl_ecs

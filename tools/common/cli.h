@@ -31,6 +31,17 @@ struct UsageError : std::runtime_error
   using std::runtime_error::runtime_error;
 };
 
+/** \brief A failure with its exit code and one line for the user. */
+struct ToolError : std::runtime_error
+{
+  ToolError(int c, const std::string& what) : std::runtime_error(what), code(c) {}
+  int code;
+};
+
+/** \brief Run `body` and turn what it throws into "tool: message" on stderr and the documented
+ * exit code (UsageError 2, ToolError its own, out of memory and anything else 1). */
+int runToolMain(const char* tool, const std::function<int()>& body);
+
 /** \brief Strict number parsing: the whole text must be the number. Throw UsageError naming
  * the flag. */
 double parseDoubleFlag(const std::string& flag, const std::string& text);

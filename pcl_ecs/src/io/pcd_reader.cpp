@@ -1,6 +1,8 @@
 // Our PCD parser: header checked field by field, data checked against the header's promises.
 #include "io_detail.h"
 
+#include <pcl_ecs/io/pcd_stream.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cstdint>
@@ -64,28 +66,21 @@ std::uint8_t pcdDatatype(char type, std::uint64_t size)
 constexpr std::uint64_t kMaxPoints = static_cast<std::uint64_t>(std::numeric_limits<std::int32_t>::max());
 }  // namespace
 
-void parsePcd(const std::string& bytes, pcl::PCLPointCloud2& cloud)
+PcdHeader parsePcdHeader(const std::function<bool(std::string&)>& next_line, std::uint64_t max_points)
 {
-  cloud = pcl::PCLPointCloud2{};
-  std::size_t pos = 0;
   std::vector<std::string> names, types;
   std::vector<std::uint64_t> sizes, counts;
   std::uint64_t width = 0, height = 1, points = 0;
   bool have_width = false, have_points = false, have_fields = false, have_height = false;
   std::string data;
   int line_no = 0;
-  if (bytes.empty())
-    fail("the file is empty");
+  PcdHeader header;
+  std::string line;
 
   while (data.empty())
   {
-    if (pos >= bytes.size())
+    if (!next_line(line))
       fail("the header ends before its DATA line (", line_no, " lines read)");
-    std::size_t eol = bytes.find('\n', pos);
-    if (eol == std::string::npos)
-      eol = bytes.size();
-    std::string line = bytes.substr(pos, eol - pos);
-    pos = eol + 1;
     ++line_no;
     if (line_no > 1000)
       fail("no DATA line in the first 1000 lines: not a PCD file");
@@ -144,12 +139,11 @@ void parsePcd(const std::string& bytes, pcl::PCLPointCloud2& cloud)
     }
     else if (key == "VIEWPOINT")
     {
-      double v[7];
       if (args.size() != 7)
         fail("header line ", line_no, ": VIEWPOINT needs 7 numbers");
-      for (int i = 0; i < 7; ++i)
-        if (!detail::parseNumber(args[static_cast<std::size_t>(i)], v[i]))
-          fail("header line ", line_no, ": bad VIEWPOINT value '", args[static_cast<std::size_t>(i)], "'");
+      for (std::size_t i = 0; i < 7; ++i)
+        if (!detail::parseNumber(args[i], header.viewpoint[i]))
+          fail("header line ", line_no, ": bad VIEWPOINT value '", args[i], "'");
     }
     else if (key == "DATA")
     {
@@ -179,11 +173,12 @@ void parsePcd(const std::string& bytes, pcl::PCLPointCloud2& cloud)
     points = width * height;
   if (!have_height)
     height = 1;
-  if (width > kMaxPoints || height > kMaxPoints || width * height != points)
+  if (width > max_points || height > max_points || width * height != points)
     fail("the header is inconsistent: WIDTH ", width, " x HEIGHT ", height, " != POINTS ", points);
-  if (points > kMaxPoints)
+  if (points > max_points)
     fail("POINTS ", points, " is more than this reader supports");
 
+  pcl::PCLPointCloud2 layout;
   for (std::size_t f = 0; f < names.size(); ++f)
   {
     if (types[f].size() != 1)
@@ -196,14 +191,55 @@ void parsePcd(const std::string& bytes, pcl::PCLPointCloud2& cloud)
     for (std::size_t g = 0; g < f; ++g)
       if (names[g] == names[f] && names[f] != "_")
         fail("the header is inconsistent: field ", names[f], " appears twice");
-    detail::addField(cloud, names[f], dt, static_cast<std::uint32_t>(counts[f]));
-    if (cloud.point_step > (1u << 20))
+    detail::addField(layout, names[f], dt, static_cast<std::uint32_t>(counts[f]));
+    if (layout.point_step > (1u << 20))
       fail("points of more than 1 MiB each are not supported");
   }
-  if (cloud.point_step == 0)
+  if (layout.point_step == 0)
     fail("the header describes points of zero bytes");
-  cloud.width = static_cast<std::uint32_t>(width);
-  cloud.height = static_cast<std::uint32_t>(height);
+  header.fields = layout.fields;
+  header.point_step = layout.point_step;
+  header.width = width;
+  header.height = height;
+  header.points = points;
+  header.data = data == "ascii" ? PcdData::Ascii : data == "binary" ? PcdData::Binary : PcdData::BinaryCompressed;
+  return header;
+}
+
+int PcdHeader::fieldIndex(const std::string& name) const
+{
+  for (std::size_t f = 0; f < fields.size(); ++f)
+    if (fields[f].name == name)
+      return static_cast<int>(f);
+  return -1;
+}
+
+void parsePcd(const std::string& bytes, pcl::PCLPointCloud2& cloud)
+{
+  cloud = pcl::PCLPointCloud2{};
+  if (bytes.empty())
+    fail("the file is empty");
+  std::size_t pos = 0;
+  int line_no = 0;
+  const PcdHeader header = parsePcdHeader(
+      [&](std::string& line) {
+        if (pos >= bytes.size())
+          return false;
+        ++line_no;
+        std::size_t eol = bytes.find('\n', pos);
+        if (eol == std::string::npos)
+          eol = bytes.size();
+        line.assign(bytes, pos, eol - pos);
+        pos = eol + 1;
+        return true;
+      },
+      kMaxPoints);
+  const std::uint64_t points = header.points;
+  const std::string data = header.data == PcdData::Ascii ? "ascii" : header.data == PcdData::Binary ? "binary" : "binary_compressed";
+  cloud.fields = header.fields;
+  cloud.point_step = header.point_step;
+  cloud.width = static_cast<std::uint32_t>(header.width);
+  cloud.height = static_cast<std::uint32_t>(header.height);
   cloud.row_step = cloud.point_step * cloud.width;
   cloud.is_bigendian = false;
   const std::uint64_t step = cloud.point_step;

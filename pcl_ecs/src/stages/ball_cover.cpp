@@ -170,7 +170,8 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
   std::vector<int> order;
   order.reserve(n);
   for (std::size_t i = 0; i < n; ++i)
-    if (!in.is_feature[i])
+    if (!in.is_feature[i] && (!in.centre_allowed || (*in.centre_allowed)[i]) &&
+        (!in.pre_covered || !(*in.pre_covered)[i]))
       order.push_back(static_cast<int>(i));
   seededShuffle(order, params.seed);
   if (order.empty())
@@ -220,6 +221,11 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
   // Ball keys while running: cell index << 32 | index in the cell; renumbered at the end.
   std::vector<std::vector<CoverBall>> cell_balls(cells);
   std::vector<std::int64_t> owner(n, -1);
+  constexpr std::int64_t kPreCovered = std::numeric_limits<std::int64_t>::max();
+  if (in.pre_covered)
+    for (std::size_t i = 0; i < n; ++i)
+      if ((*in.pre_covered)[i])
+        owner[i] = kPreCovered;
   const int threads = resolveThreads(params.threads);
   for (int col = 0; col < 8; ++col)
   {
@@ -259,7 +265,7 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
       out.balls.push_back(std::move(b));
     }
   for (std::size_t i = 0; i < n; ++i)
-    if (owner[i] >= 0)
+    if (owner[i] >= 0 && owner[i] != kPreCovered)
       out.owner[i] = static_cast<int>(first_id[static_cast<std::size_t>(owner[i] >> 32)] +
                                       static_cast<std::size_t>(owner[i] & 0xFFFFFFFF));
 }

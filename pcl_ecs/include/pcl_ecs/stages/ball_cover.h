@@ -43,6 +43,11 @@ struct CoverInput
   double bbox_diagonal;                     ///< L
   /// radius search over the non-feature points only (results index `cloud`)
   const pcl::search::Search<pcl::PointXYZ>& nonfeature_search;
+  /// optional (the out-of-core path): only points with a non-zero entry may be centres
+  const std::vector<std::uint8_t>* centre_allowed = nullptr;
+  /// optional (the out-of-core path): points covered already (by a neighbouring tile's balls);
+  /// they still shape the quadrics but are neither centres nor claimed again (owner stays -1)
+  const std::vector<std::uint8_t>* pre_covered = nullptr;
 };
 
 /** \brief One ball, in local-frame coordinates. */

@@ -1,0 +1,112 @@
+// out_of_core.h — the paper's method on PCD scans larger than memory (docs/STREAMING.md).
+//
+//  scan   stream the input once: count, bounds and a deterministic ~1M-point sample;
+//  plan   split the sample's 2D footprint (the two longest axes) into tiles of equal point
+//         counts, sized so that a tile with its halo fits the memory budget; estimate the halo
+//         width (neighbourhoods + the largest ball) from the sample;
+//  split  stream the input again: every point to its tile's core file, and to the halo file of
+//         every other tile within the halo width (scratch directory);
+//  A      per tile: K-neighbourhoods, normals, eq. 1, eq. 3 and eq. 7-11 → per-tile sums;
+//         δ = α × the mean measure over ALL points (eq. 4);
+//  B      per tile: features, eq. 5 → the global means of eq. 6, eq. 12 and the radius unit;
+//  C      per tile, colour by colour (tiles closer than two ball radii never share a colour):
+//         the cover, centres taken from the tile's own points only; points claimed in other
+//         tiles are recorded so that nothing is covered twice and nothing is missed;
+//  write  the tiles' outputs in tile order (temporary file, renamed into place).
+// Every step writes its results to the scratch directory under a temporary name and renames them
+// when complete, so a killed run started again with the same command resumes where it stopped.
+// The output depends on the input, the parameters and the memory limit (the tiling), never on the
+// thread count.
+#pragma once
+
+#include <pcl_ecs/parameters.h>
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace pcl_ecs
+{
+namespace stream
+{
+
+/** \brief Settings of the out-of-core run (the method's own are in Parameters). */
+struct StreamOptions
+{
+  /** \brief The memory budget in bytes (0: a quarter of the physical memory, at least 256 MiB). */
+  std::uint64_t memory_limit = 0;
+  /** \brief Scratch directory ("" : OUTPUT.ecs-scratch beside the output). Removed on success
+   * unless keep_scratch. */
+  std::string scratch_dir;
+  bool keep_scratch = false;
+  /** \brief Progress lines (stage, tiles done, tiles, points per second, seconds left). */
+  std::function<void(const std::string& line)> progress;
+  /** \brief For tests: kill the process (SIGKILL) after this many tile steps (0: never). */
+  std::uint64_t kill_after_steps = 0;
+};
+
+/** \brief One tile: its rectangle in the plane of the two longest axes (axis_u, axis_v). */
+struct Tile
+{
+  std::array<double, 2> lo{{0, 0}};
+  std::array<double, 2> hi{{0, 0}};
+  std::uint64_t core_points = 0;
+  std::uint64_t halo_points = 0;
+  int colour = 0;
+};
+
+/** \brief What a run did. */
+struct StreamSummary
+{
+  std::uint64_t input_points = 0;
+  std::uint64_t finite_points = 0;
+  std::uint64_t output_points = 0;
+  std::uint64_t feature_points = 0;
+  std::uint64_t balls = 0;
+  int axis_u = 0, axis_v = 1;
+  std::vector<Tile> tiles;
+  double halo = 0.0;                  ///< halo width (input units)
+  double bbox_diagonal = 0.0;         ///< L
+  double feature_threshold = 0.0;     ///< δ
+  double mean_spacing = 0.0;          ///< eq. 6
+  double mean_abs_curvature = 0.0;    ///< eq. 12
+  double neighborhood_radius = 0.0;   ///< radius cap unit
+  double max_error = 0.0;
+  std::uint64_t incomplete_neighbourhoods = 0;  ///< core points whose K neighbours reach past the halo
+  bool halo_too_narrow = false;       ///< 2 × the radius cap did not fit in the halo (warned)
+  std::uint64_t tile_point_budget = 0;  ///< largest core + halo planned per tile
+  std::uint64_t scratch_bytes = 0;    ///< largest scratch directory size seen
+  bool resumed = false;               ///< finished steps of an earlier run were reused
+  double seconds = 0.0;
+  std::array<double, 6> stage_seconds{{0, 0, 0, 0, 0, 0}};  ///< scan, split, A, B, C, write
+};
+
+/** \brief Run the method on `input` (a PCD file) into `output` (binary PCD with the input's fields).
+ * Throws io::FileError / io::FormatError for unreadable or bad input, std::runtime_error for
+ * anything else (message says what and where). Nothing appears at `output` unless it succeeds.
+ * Parameters::target_size is not supported here (refused). */
+StreamSummary simplifyOutOfCore(const std::string& input, const std::string& output,
+                                const Parameters& params, const StreamOptions& options);
+
+/** \brief Parse a size like "512M", "2G", "1.5G", "800000K" or plain bytes; false when malformed. */
+bool parseByteSize(const std::string& text, std::uint64_t& bytes);
+
+/** \brief Physical memory of this machine in bytes (0 when unknown). */
+std::uint64_t physicalMemory();
+
+/** \brief Split the 2D sample points into tiles of at most `max_per_tile` samples each by
+ * recursive median splits of the longer side (deterministic; ties by position in the list).
+ * The outer tiles reach to infinity. */
+std::vector<Tile> planTiles(const std::vector<std::array<double, 2>>& sample, std::size_t max_per_tile);
+
+/** \brief Distance between two tiles' rectangles (0 when they touch). */
+double tileDistance(const Tile& a, const Tile& b);
+
+/** \brief Greedy colouring in tile order: two tiles closer than `separation` get different colours.
+ * Returns the number of colours. */
+int colourTiles(std::vector<Tile>& tiles, double separation);
+
+}  // namespace stream
+}  // namespace pcl_ecs

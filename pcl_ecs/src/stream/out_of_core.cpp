@@ -1,0 +1,1304 @@
+// The out-of-core path: see out_of_core.h and docs/STREAMING.md.
+#include <pcl_ecs/stream/out_of_core.h>
+
+#include <pcl_ecs/io/pcd_stream.h>
+#include <pcl_ecs/neighborhood.h>
+#include <pcl_ecs/search/nanoflann_search.h>
+#include <pcl_ecs/spatial_order.h>
+#include <pcl_ecs/stages/ball_cover.h>
+#include <pcl_ecs/stages/density_weights.h>
+#include <pcl_ecs/stages/feature_measure.h>
+#include <pcl_ecs/stages/local_density.h>
+#include <pcl_ecs/stages/normals.h>
+#include <pcl_ecs/stages/paraboloid_curvature.h>
+#include <pcl_ecs/stages/seeded_order.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <mutex>
+#include <numeric>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+#include <unistd.h>
+
+namespace pcl_ecs
+{
+namespace stream
+{
+
+namespace fs = std::filesystem;
+
+namespace
+{
+using Clock = std::chrono::steady_clock;
+constexpr const char* kScratchMarker = "pcl_ecs-scratch";
+constexpr int kFormatVersion = 1;
+constexpr std::size_t kChunk = 1 << 16;          // points per read
+constexpr std::size_t kSampleTarget = 1000000;   // points in the planning sample
+constexpr int kConcurrentTiles = 2;              // the plan assumes this many tiles in memory
+constexpr std::size_t kAttrBytes = 12 + 3 * 8;   // normal (3 f32), weight, measure, curvature (f64)
+
+double secondsSince(Clock::time_point t0)
+{
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+[[noreturn]] void failRun(const std::string& what)
+{
+  throw std::runtime_error(what);
+}
+
+// ---- scratch files: written under a temporary name, renamed when complete -------------------
+void writeFileAtomic(const fs::path& path, const void* data, std::size_t bytes)
+{
+  const fs::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    f.write(static_cast<const char*>(data), static_cast<std::streamsize>(bytes));
+    f.flush();
+    if (!f)
+      failRun("cannot write " + tmp.string() + " (disk full?)");
+  }
+  fs::rename(tmp, path);
+}
+
+template <typename T>
+void writeVectorAtomic(const fs::path& path, const std::vector<T>& v)
+{
+  writeFileAtomic(path, v.data(), v.size() * sizeof(T));
+}
+
+template <typename T>
+std::vector<T> readVector(const fs::path& path)
+{
+  std::ifstream f(path, std::ios::binary);
+  if (!f)
+    failRun("cannot read the scratch file " + path.string());
+  f.seekg(0, std::ios::end);
+  const std::size_t bytes = static_cast<std::size_t>(f.tellg());
+  f.seekg(0);
+  std::vector<T> v(bytes / sizeof(T));
+  f.read(reinterpret_cast<char*>(v.data()), static_cast<std::streamsize>(v.size() * sizeof(T)));
+  if (!f)
+    failRun("cannot read the scratch file " + path.string());
+  return v;
+}
+
+std::uint64_t directoryBytes(const fs::path& dir)
+{
+  std::uint64_t total = 0;
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(dir, ec); !ec && it != fs::recursive_directory_iterator();
+       it.increment(ec))
+    if (it->is_regular_file(ec))
+      total += it->file_size(ec);
+  return total;
+}
+
+// ---- the tile tree: recursive median splits of the sample ------------------------------------
+struct KdNode
+{
+  int axis = -1;       // -1: a leaf
+  double split = 0.0;  // left: coordinate < split
+  int left = -1, right = -1;
+  int tile = -1;
+};
+
+struct TileTree
+{
+  std::vector<KdNode> nodes;
+  std::vector<Tile> tiles;
+
+  int locate(const std::array<double, 2>& p) const
+  {
+    int n = 0;
+    while (nodes[static_cast<std::size_t>(n)].axis >= 0)
+    {
+      const KdNode& k = nodes[static_cast<std::size_t>(n)];
+      n = p[static_cast<std::size_t>(k.axis)] < k.split ? k.left : k.right;
+    }
+    return nodes[static_cast<std::size_t>(n)].tile;
+  }
+  /// Tiles whose rectangle comes within `h` of p.
+  void near(const std::array<double, 2>& p, double h, std::vector<int>& out, int n = 0) const
+  {
+    const KdNode& k = nodes[static_cast<std::size_t>(n)];
+    if (k.axis < 0)
+    {
+      const Tile& t = tiles[static_cast<std::size_t>(k.tile)];
+      const double du = std::max({t.lo[0] - p[0], 0.0, p[0] - t.hi[0]});
+      const double dv = std::max({t.lo[1] - p[1], 0.0, p[1] - t.hi[1]});
+      if (du * du + dv * dv <= h * h)
+        out.push_back(k.tile);
+      return;
+    }
+    const double c = p[static_cast<std::size_t>(k.axis)];
+    if (c - h < k.split)
+      near(p, h, out, k.left);
+    if (c + h >= k.split)
+      near(p, h, out, k.right);
+  }
+};
+
+TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::size_t max_per_tile)
+{
+  TileTree tree;
+  const double inf = std::numeric_limits<double>::infinity();
+  std::vector<std::uint32_t> ids(sample.size());
+  std::iota(ids.begin(), ids.end(), 0u);
+  struct Job
+  {
+    int node;
+    std::size_t begin, end;
+    std::array<double, 2> lo, hi;    // the rectangle (may be infinite)
+    std::array<double, 2> slo, shi;  // the samples' extent, to choose the split axis
+  };
+  auto extent = [&](std::size_t b, std::size_t e, std::array<double, 2>& lo, std::array<double, 2>& hi) {
+    lo = {inf, inf};
+    hi = {-inf, -inf};
+    for (std::size_t i = b; i < e; ++i)
+      for (std::size_t a = 0; a < 2; ++a)
+      {
+        lo[a] = std::min(lo[a], sample[ids[i]][a]);
+        hi[a] = std::max(hi[a], sample[ids[i]][a]);
+      }
+  };
+  tree.nodes.push_back({});
+  std::vector<Job> jobs;
+  Job root{0, 0, ids.size(), {-inf, -inf}, {inf, inf}, {}, {}};
+  extent(0, ids.size(), root.slo, root.shi);
+  jobs.push_back(root);
+  // Depth-first, left before right: tiles are numbered in a deterministic, spatially coherent order.
+  while (!jobs.empty())
+  {
+    Job j = jobs.back();
+    jobs.pop_back();
+    const std::size_t count = j.end - j.begin;
+    const int axis = (j.shi[1] - j.slo[1]) > (j.shi[0] - j.slo[0]) ? 1 : 0;
+    bool split = count > max_per_tile && count >= 2 && j.shi[static_cast<std::size_t>(axis)] > j.slo[static_cast<std::size_t>(axis)];
+    double value = 0.0;
+    std::size_t mid = 0;
+    if (split)
+    {
+      const std::size_t a = static_cast<std::size_t>(axis);
+      auto first = ids.begin() + static_cast<std::ptrdiff_t>(j.begin);
+      auto last = ids.begin() + static_cast<std::ptrdiff_t>(j.end);
+      std::sort(first, last, [&](std::uint32_t x, std::uint32_t y) {
+        return sample[x][a] < sample[y][a] || (sample[x][a] == sample[y][a] && x < y);
+      });
+      mid = j.begin + count / 2;
+      value = sample[ids[mid]][a];
+      // Everything below `value` goes left: move mid to the first sample at value.
+      while (mid > j.begin && sample[ids[mid - 1]][a] == value)
+        --mid;
+      if (mid == j.begin)
+      {
+        // The lower half is one value: split just above it instead.
+        mid = j.begin + count / 2;
+        while (mid < j.end && sample[ids[mid]][a] == value)
+          ++mid;
+        if (mid == j.end)
+          split = false;
+        else
+          value = sample[ids[mid]][a];
+      }
+    }
+    KdNode& node = tree.nodes[static_cast<std::size_t>(j.node)];
+    if (!split)
+    {
+      node.tile = static_cast<int>(tree.tiles.size());
+      Tile t;
+      t.lo = j.lo;
+      t.hi = j.hi;
+      tree.tiles.push_back(t);
+      continue;
+    }
+    node.axis = axis;
+    node.split = value;
+    node.left = static_cast<int>(tree.nodes.size());
+    node.right = node.left + 1;
+    tree.nodes.push_back({});
+    tree.nodes.push_back({});
+    const std::size_t a = static_cast<std::size_t>(axis);
+    Job left{tree.nodes[static_cast<std::size_t>(j.node)].left, j.begin, mid, j.lo, j.hi, {}, {}};
+    Job right{tree.nodes[static_cast<std::size_t>(j.node)].right, mid, j.end, j.lo, j.hi, {}, {}};
+    left.hi[a] = value;
+    right.lo[a] = value;
+    extent(left.begin, left.end, left.slo, left.shi);
+    extent(right.begin, right.end, right.slo, right.shi);
+    jobs.push_back(right);
+    jobs.push_back(left);
+  }
+  return tree;
+}
+
+// ---- one tile in memory ---------------------------------------------------------------------
+struct TileData
+{
+  LocalCloud::Ptr cloud = std::make_shared<LocalCloud>();
+  std::vector<std::uint64_t> gid;
+  std::vector<std::uint32_t> src_tile, src_index;
+  std::vector<std::uint8_t> is_core;
+  std::vector<std::uint8_t> records;  // point_step bytes each
+  std::size_t size() const { return gid.size(); }
+};
+
+struct Paths
+{
+  fs::path root;
+  fs::path core(int t) const { return root / "tiles" / (std::to_string(t) + ".core"); }
+  fs::path halo(int t) const { return root / "tiles" / (std::to_string(t) + ".halo"); }
+  fs::path attr(int t) const { return root / "a" / (std::to_string(t) + ".attr"); }
+  fs::path sumA(int t) const { return root / "a" / (std::to_string(t) + ".sum"); }
+  fs::path dens(int t) const { return root / "b" / (std::to_string(t) + ".dens"); }
+  fs::path sumB(int t) const { return root / "b" / (std::to_string(t) + ".sum"); }
+  fs::path out(int t) const { return root / "c" / (std::to_string(t) + ".out"); }
+  fs::path doneC(int t) const { return root / "c" / (std::to_string(t) + ".done"); }
+  fs::path claims(int target, int writer) const
+  {
+    return root / "c" / (std::to_string(target) + ".from." + std::to_string(writer));
+  }
+  fs::path plan() const { return root / "plan.txt"; }
+};
+
+/// What the scan and the split establish; saved in plan.txt (text, exact doubles).
+struct Plan
+{
+  std::string fingerprint;
+  std::uint64_t input_points = 0, finite_points = 0;
+  Eigen::Vector3d lo = Eigen::Vector3d::Zero(), hi = Eigen::Vector3d::Zero();
+  int axis_u = 0, axis_v = 1;
+  double halo = 0.0;
+  std::uint64_t tile_point_budget = 0;
+  TileTree tree;
+
+  Eigen::Vector3d origin() const { return 0.5 * (lo + hi); }
+};
+
+void savePlan(const Paths& paths, const Plan& plan)
+{
+  std::ostringstream os;
+  os << std::setprecision(17);
+  os << plan.fingerprint << '\n'
+     << plan.input_points << ' ' << plan.finite_points << '\n'
+     << plan.lo.x() << ' ' << plan.lo.y() << ' ' << plan.lo.z() << ' ' << plan.hi.x() << ' ' << plan.hi.y()
+     << ' ' << plan.hi.z() << '\n'
+     << plan.axis_u << ' ' << plan.axis_v << ' ' << plan.halo << ' ' << plan.tile_point_budget << '\n'
+     << plan.tree.nodes.size() << '\n';
+  for (const KdNode& n : plan.tree.nodes)
+    os << n.axis << ' ' << n.split << ' ' << n.left << ' ' << n.right << ' ' << n.tile << '\n';
+  os << plan.tree.tiles.size() << '\n';
+  for (const Tile& t : plan.tree.tiles)
+    os << t.lo[0] << ' ' << t.lo[1] << ' ' << t.hi[0] << ' ' << t.hi[1] << ' ' << t.core_points << ' '
+       << t.halo_points << '\n';
+  const std::string text = os.str();
+  writeFileAtomic(paths.plan(), text.data(), text.size());
+}
+
+bool loadPlan(const Paths& paths, const std::string& fingerprint, Plan& plan)
+{
+  std::ifstream f(paths.plan());
+  if (!f)
+    return false;
+  std::string line;
+  if (!std::getline(f, line) || line != fingerprint)
+    return false;
+  plan.fingerprint = line;
+  // Numbers through strtod: operator>> does not read back "inf" (the outer tiles' edges).
+  bool ok = true;
+  auto num = [&]() -> double {
+    std::string token;
+    if (!(f >> token))
+    {
+      ok = false;
+      return 0.0;
+    }
+    char* end = nullptr;
+    const double v = std::strtod(token.c_str(), &end);
+    if (end == token.c_str() || *end != '\0')
+      ok = false;
+    return v;
+  };
+  auto count = [&]() { return static_cast<std::uint64_t>(num()); };
+  auto integer = [&]() { return static_cast<int>(num()); };
+  plan.input_points = count();
+  plan.finite_points = count();
+  for (int a = 0; a < 3; ++a)
+    plan.lo[a] = num();
+  for (int a = 0; a < 3; ++a)
+    plan.hi[a] = num();
+  plan.axis_u = integer();
+  plan.axis_v = integer();
+  plan.halo = num();
+  plan.tile_point_budget = count();
+  const std::uint64_t nodes = count();
+  if (!ok || nodes > 10000000)
+    return false;
+  plan.tree.nodes.resize(nodes);
+  for (KdNode& n : plan.tree.nodes)
+  {
+    n.axis = integer();
+    n.split = num();
+    n.left = integer();
+    n.right = integer();
+    n.tile = integer();
+  }
+  const std::uint64_t tiles = count();
+  if (!ok || tiles > 10000000)
+    return false;
+  plan.tree.tiles.resize(tiles);
+  for (Tile& t : plan.tree.tiles)
+  {
+    t.lo[0] = num();
+    t.lo[1] = num();
+    t.hi[0] = num();
+    t.hi[1] = num();
+    t.core_points = count();
+    t.halo_points = count();
+  }
+  return ok;
+}
+
+std::string fingerprintOf(const std::string& input, const Parameters& p, std::uint64_t memory_limit)
+{
+  std::error_code ec;
+  const fs::path abs = fs::absolute(input, ec);
+  const auto size = fs::file_size(input, ec);
+  const auto mtime = fs::last_write_time(input, ec).time_since_epoch().count();
+  std::ostringstream os;
+  os << std::setprecision(17) << "v" << kFormatVersion << " in=" << abs.string() << " size=" << size
+     << " mtime=" << mtime << " terr=" << p.error_threshold << " alpha=" << p.feature_factor
+     << " k=" << p.k_neighbors << " form=" << toString(p.error_form) << " adaptive=" << p.adaptive
+     << " af=" << p.adaptive_factor << " cap=" << p.radius_cap_factor << " rep=" << p.max_representative_offset
+     << " seed=" << p.seed << " mem=" << memory_limit;
+  return os.str();
+}
+
+/// A fixed pseudo-random choice per point: the planning sample does not depend on chunking.
+bool inSample(std::uint64_t gid, double fraction)
+{
+  if (fraction >= 1.0)
+    return true;
+  SplitMix64 rng(gid ^ 0x5eed5eed5eedull);
+  return static_cast<double>(rng.next() >> 11) * 0x1.0p-53 < fraction;
+}
+
+/// Runs fn(tile) for every tile in `tiles` on `workers` threads; the first exception wins.
+void forEachTile(const std::vector<int>& tiles, int workers, const std::function<void(int)>& fn)
+{
+  std::atomic<std::size_t> next{0};
+  std::mutex m;
+  std::exception_ptr error;
+  auto work = [&]() {
+    for (;;)
+    {
+      {
+        std::lock_guard<std::mutex> lock(m);
+        if (error)
+          return;
+      }
+      const std::size_t i = next++;
+      if (i >= tiles.size())
+        return;
+      try
+      {
+        fn(tiles[i]);
+      }
+      catch (...)
+      {
+        std::lock_guard<std::mutex> lock(m);
+        if (!error)
+          error = std::current_exception();
+        return;
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int w = 1; w < std::min<int>(workers, static_cast<int>(tiles.size())); ++w)
+    pool.emplace_back(work);
+  work();
+  for (auto& t : pool)
+    t.join();
+  if (error)
+    std::rethrow_exception(error);
+}
+
+class Runner
+{
+public:
+  Runner(const std::string& input, const std::string& output, const Parameters& params,
+         const StreamOptions& options)
+    : input_(input), output_(output), params_(params), options_(options)
+  {
+  }
+
+  StreamSummary run();
+
+private:
+  void report(const std::string& line)
+  {
+    if (options_.progress)
+    {
+      std::lock_guard<std::mutex> lock(report_mutex_);
+      options_.progress(line);
+    }
+  }
+  void stepDone()
+  {
+    const std::uint64_t done = ++steps_;
+    if (options_.kill_after_steps && done >= options_.kill_after_steps)
+      std::raise(SIGKILL);
+  }
+  void scanAndPlan();
+  void split();
+  TileData loadTile(int t) const;
+  void phaseA(int t);
+  void phaseB(int t);
+  void phaseC(int t);
+  void writeOutput();
+  void runStage(const char* name, int index, const std::vector<int>& todo, const std::function<void(int)>& fn);
+
+  std::string input_, output_;
+  Parameters params_;
+  StreamOptions options_;
+  Paths paths_;
+  Plan plan_;
+  io::PcdHeader header_;
+  StreamSummary summary_;
+  std::mutex report_mutex_;
+  std::atomic<std::uint64_t> steps_{0};
+  int workers_ = 1;
+  int tile_threads_ = 1;
+  std::uint64_t memory_limit_ = 0;
+  // global statistics
+  double delta_ = 0.0, mean_spacing_ = 0.0, mean_abs_h_ = 0.0, neighborhood_radius_ = 0.0, cap_ = 0.0;
+  Eigen::Vector3d viewpoint_local_ = Eigen::Vector3d::Zero();
+};
+
+void Runner::scanAndPlan()
+{
+  const auto t0 = Clock::now();
+  io::PcdStreamReader reader(input_);
+  header_ = reader.header();
+  const io::XyzAccess xyz(header_);
+  const std::size_t step = header_.point_step;
+  const double fraction = std::min(1.0, static_cast<double>(kSampleTarget) / std::max<double>(1.0, static_cast<double>(header_.points)));
+  std::vector<Eigen::Vector3d> sample;
+  sample.reserve(std::min<std::uint64_t>(header_.points, kSampleTarget + kSampleTarget / 10));
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  std::vector<std::uint8_t> chunk;
+  std::uint64_t gid = 0, finite = 0;
+  std::size_t n;
+  while ((n = reader.read(kChunk, chunk)) > 0)
+  {
+    for (std::size_t i = 0; i < n; ++i, ++gid)
+    {
+      double x, y, z;
+      xyz.get(chunk.data() + i * step, x, y, z);
+      if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
+        continue;
+      ++finite;
+      const Eigen::Vector3d p(x, y, z);
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+      if (inSample(gid, fraction))
+        sample.push_back(p);
+    }
+    if ((gid & ((1u << 22) - 1)) < kChunk)
+    {
+      std::ostringstream os;
+      os << "scan: " << gid << " / " << header_.points << " points read";
+      report(os.str());
+    }
+  }
+  plan_.input_points = header_.points;
+  plan_.finite_points = finite;
+  plan_.lo = lo;
+  plan_.hi = hi;
+  const int k = params_.k_neighbors;
+  if (finite <= static_cast<std::uint64_t>(k) || sample.size() <= static_cast<std::size_t>(k))
+  {
+    std::ostringstream os;
+    os << input_ << ": only " << finite << " finite points; the neighbourhood size K = " << k << " needs at least "
+       << k + 1;
+    failRun(os.str());
+  }
+  // The tiles live in the plane of the two longest axes.
+  const Eigen::Vector3d ext = hi - lo;
+  int order[3] = {0, 1, 2};
+  std::sort(order, order + 3, [&](int a, int b) { return ext[a] > ext[b] || (ext[a] == ext[b] && a < b); });
+  plan_.axis_u = std::min(order[0], order[1]);
+  plan_.axis_v = std::max(order[0], order[1]);
+  if (!(ext[order[1]] > 0.0))
+    failRun(input_ + ": all points lie on one line: there is no surface to simplify");
+
+  // Neighbourhood size from the sample: the j-th sample neighbour at distance r_j means the K-th
+  // neighbour of the full cloud at about r_j sqrt(K f / j) (a surface: counts grow with r²).
+  const Eigen::Vector3d origin = 0.5 * (lo + hi);
+  auto local = std::make_shared<LocalCloud>();
+  local->resize(sample.size());
+  for (std::size_t i = 0; i < sample.size(); ++i)
+    (*local)[i].getVector3fMap() = (sample[i] - origin).cast<float>();
+  NanoflannSearch tree;
+  tree.setInputCloud(local);
+  const int j = fraction >= 1.0 ? k : std::min<int>(8, static_cast<int>(sample.size()) - 1);
+  const double scale = fraction >= 1.0 ? 1.0 : std::sqrt(static_cast<double>(k) * fraction / j);
+  // Every stride-th sample point is asked (at most ~100k queries).
+  const std::size_t stride = std::max<std::size_t>(1, sample.size() / 100000);
+  std::vector<double> rk((sample.size() + stride - 1) / stride);
+  const int threads = resolveThreads(params_.threads);
+#pragma omp parallel num_threads(threads)
+  {
+    pcl::Indices idx;
+    std::vector<float> d2;
+#pragma omp for schedule(static)
+    for (std::ptrdiff_t q = 0; q < static_cast<std::ptrdiff_t>(rk.size()); ++q)
+    {
+      tree.nearestKSearch((*local)[static_cast<std::size_t>(q) * stride], j + 1, idx, d2);
+      rk[static_cast<std::size_t>(q)] = d2.empty() ? 0.0 : std::sqrt(static_cast<double>(d2.back())) * scale;
+    }
+  }
+  double mean_rk = 0.0;
+  for (double r : rk)
+    mean_rk += r;
+  mean_rk /= static_cast<double>(rk.size());
+  std::vector<double> sorted = rk;
+  const std::size_t q = std::min(sorted.size() - 1, static_cast<std::size_t>(0.999 * static_cast<double>(sorted.size())));
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(q), sorted.end());
+  const double rk_high = sorted[q];
+  // The radius unit (eq. 1: RMS distance to the K neighbours) is about 0.7 r_K on a surface.
+  const double cap_estimate = params_.radius_cap_factor * 0.75 * mean_rk;
+  // A ball (radius <= cap) centred in a tile reaches cap into the halo; the values of its members
+  // need their neighbours' neighbours (about 3 r_K further) to be exact.
+  plan_.halo = 1.25 * cap_estimate + 3.0 * rk_high;
+
+  // Tile size: a tile and its halo must fit the budget of one of kConcurrentTiles workers.
+  const double bytes_per_point = 420.0 + 2.0 * static_cast<double>(step);
+  const double budget = 0.7 * static_cast<double>(memory_limit_) / kConcurrentTiles;
+  plan_.tile_point_budget = static_cast<std::uint64_t>(std::max(20000.0, budget / bytes_per_point));
+  std::vector<std::array<double, 2>> sample2(sample.size());
+  for (std::size_t i = 0; i < sample.size(); ++i)
+    sample2[i] = {sample[i][plan_.axis_u], sample[i][plan_.axis_v]};
+  const double per_sample = 1.0 / fraction;
+  double core_target = static_cast<double>(plan_.tile_point_budget) * 0.8;
+  for (int attempt = 0;; ++attempt)
+  {
+    const std::size_t max_samples = std::max<std::size_t>(1, static_cast<std::size_t>(core_target / per_sample));
+    plan_.tree = buildTileTree(sample2, max_samples);
+    // Estimated core + halo points of every tile.
+    std::vector<double> load(plan_.tree.tiles.size(), 0.0);
+    std::vector<int> near;
+    const std::size_t every = std::max<std::size_t>(1, sample2.size() / 250000);
+    for (std::size_t i = 0; i < sample2.size(); i += every)
+    {
+      near.clear();
+      plan_.tree.near(sample2[i], plan_.halo, near);
+      for (int t : near)
+        load[static_cast<std::size_t>(t)] += per_sample * static_cast<double>(every);
+    }
+    const double worst = *std::max_element(load.begin(), load.end());
+    if (worst <= static_cast<double>(plan_.tile_point_budget) || attempt == 12 || max_samples <= 1)
+    {
+      if (worst > static_cast<double>(plan_.tile_point_budget))
+        report("warning: the halo is wide for this memory limit; tiles may exceed it");
+      break;
+    }
+    core_target *= 0.75 * static_cast<double>(plan_.tile_point_budget) / worst;
+  }
+  summary_.stage_seconds[0] = secondsSince(t0);
+  std::ostringstream os;
+  os << "plan: " << finite << " finite points, " << plan_.tree.tiles.size() << " tile(s) of at most "
+     << plan_.tile_point_budget << " points with halo " << plan_.halo << " (scan " << std::fixed
+     << std::setprecision(1) << summary_.stage_seconds[0] << " s)";
+  report(os.str());
+}
+
+void Runner::split()
+{
+  const auto t0 = Clock::now();
+  io::PcdStreamReader reader(input_);
+  const io::XyzAccess xyz(header_);
+  const std::size_t step = header_.point_step;
+  const std::size_t tiles = plan_.tree.tiles.size();
+  fs::create_directories(paths_.root / "tiles");
+  // One buffered file per tile core and halo: 64 MiB of buffers in all at most.
+  const std::size_t buffer = std::max<std::size_t>(4096, std::min<std::size_t>(1 << 20, (64u << 20) / (2 * tiles)));
+  struct Sink
+  {
+    std::vector<char> buf;
+    std::ofstream file;
+    void put(const void* data, std::size_t bytes)
+    {
+      if (buf.size() + bytes > buf.capacity())
+        flush();
+      const char* c = static_cast<const char*>(data);
+      buf.insert(buf.end(), c, c + bytes);
+    }
+    void flush()
+    {
+      file.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+      buf.clear();
+    }
+  };
+  std::vector<Sink> core(tiles), halo(tiles);
+  for (std::size_t t = 0; t < tiles; ++t)
+  {
+    core[t].buf.reserve(buffer);
+    halo[t].buf.reserve(buffer);
+    core[t].file.open(paths_.core(static_cast<int>(t)).string() + ".tmp", std::ios::binary | std::ios::trunc);
+    halo[t].file.open(paths_.halo(static_cast<int>(t)).string() + ".tmp", std::ios::binary | std::ios::trunc);
+    if (!core[t].file || !halo[t].file)
+      failRun("cannot create the scratch files in " + (paths_.root / "tiles").string());
+  }
+  for (Tile& t : plan_.tree.tiles)
+    t.core_points = t.halo_points = 0;
+  std::vector<std::uint8_t> chunk;
+  std::vector<int> near;
+  std::uint64_t gid = 0;
+  std::size_t n;
+  while ((n = reader.read(kChunk, chunk)) > 0)
+  {
+    for (std::size_t i = 0; i < n; ++i, ++gid)
+    {
+      const std::uint8_t* rec = chunk.data() + i * step;
+      double c[3];
+      xyz.get(rec, c[0], c[1], c[2]);
+      if (!std::isfinite(c[0]) || !std::isfinite(c[1]) || !std::isfinite(c[2]))
+        continue;
+      const std::array<double, 2> p{{c[plan_.axis_u], c[plan_.axis_v]}};
+      const int own = plan_.tree.locate(p);
+      Tile& ot = plan_.tree.tiles[static_cast<std::size_t>(own)];
+      const std::uint32_t src[2] = {static_cast<std::uint32_t>(own), static_cast<std::uint32_t>(ot.core_points)};
+      if (ot.core_points >= std::numeric_limits<std::uint32_t>::max())
+        failRun("a tile holds more than 4 billion points: raise --memory-limit less or split the input");
+      ++ot.core_points;
+      core[static_cast<std::size_t>(own)].put(&gid, 8);
+      core[static_cast<std::size_t>(own)].put(rec, step);
+      near.clear();
+      plan_.tree.near(p, plan_.halo, near);
+      for (int t : near)
+        if (t != own)
+        {
+          Sink& s = halo[static_cast<std::size_t>(t)];
+          ++plan_.tree.tiles[static_cast<std::size_t>(t)].halo_points;
+          s.put(&gid, 8);
+          s.put(src, 8);
+          s.put(rec, step);
+        }
+    }
+    if ((gid & ((1u << 22) - 1)) < kChunk)
+    {
+      const double s = secondsSince(t0);
+      std::ostringstream os;
+      os << "split: " << gid << " / " << header_.points << " points, " << std::fixed << std::setprecision(2)
+         << (s > 0 ? static_cast<double>(gid) / s / 1e6 : 0.0) << " M points/s";
+      report(os.str());
+    }
+  }
+  for (std::size_t t = 0; t < tiles; ++t)
+  {
+    core[t].flush();
+    halo[t].flush();
+    core[t].file.close();
+    halo[t].file.close();
+    if (!core[t].file || !halo[t].file)
+      failRun("cannot write the scratch files in " + (paths_.root / "tiles").string() + " (disk full?)");
+    fs::rename(paths_.core(static_cast<int>(t)).string() + ".tmp", paths_.core(static_cast<int>(t)));
+    fs::rename(paths_.halo(static_cast<int>(t)).string() + ".tmp", paths_.halo(static_cast<int>(t)));
+  }
+  savePlan(paths_, plan_);  // the split is complete once the plan exists
+  summary_.stage_seconds[1] = secondsSince(t0);
+}
+
+TileData Runner::loadTile(int t) const
+{
+  const std::size_t step = header_.point_step;
+  const io::XyzAccess xyz(header_);
+  const auto core = readVector<std::uint8_t>(paths_.core(t));
+  const auto halo = readVector<std::uint8_t>(paths_.halo(t));
+  const std::size_t nc = core.size() / (8 + step), nh = halo.size() / (16 + step);
+  const std::size_t n = nc + nh;
+  // Sorted by Morton code in the global box, ties by input index: the same order for a point
+  // whichever tile loads it, so neighbour ties break the same way everywhere.
+  std::vector<std::uint64_t> code(n), gid(n);
+  std::vector<Eigen::Vector3d> pos(n);
+  auto at = [&](std::size_t i) -> const std::uint8_t* {
+    return i < nc ? core.data() + i * (8 + step) : halo.data() + (i - nc) * (16 + step);
+  };
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const std::uint8_t* r = at(i);
+    std::memcpy(&gid[i], r, 8);
+    const std::uint8_t* rec = r + (i < nc ? 8 : 16);
+    xyz.get(rec, pos[i].x(), pos[i].y(), pos[i].z());
+    code[i] = mortonCode(pos[i], plan_.lo, plan_.hi);
+  }
+  std::vector<std::uint32_t> perm(n);
+  std::iota(perm.begin(), perm.end(), 0u);
+  std::sort(perm.begin(), perm.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return code[a] < code[b] || (code[a] == code[b] && gid[a] < gid[b]);
+  });
+  TileData d;
+  d.cloud->resize(n);
+  d.gid.resize(n);
+  d.src_tile.resize(n);
+  d.src_index.resize(n);
+  d.is_core.resize(n);
+  d.records.resize(n * step);
+  const Eigen::Vector3d origin = plan_.origin();
+  for (std::size_t o = 0; o < n; ++o)
+  {
+    const std::size_t i = perm[o];
+    const std::uint8_t* r = at(i);
+    (*d.cloud)[o].getVector3fMap() = (pos[i] - origin).cast<float>();
+    d.gid[o] = gid[i];
+    d.is_core[o] = i < nc;
+    if (i < nc)
+    {
+      d.src_tile[o] = static_cast<std::uint32_t>(t);
+      d.src_index[o] = static_cast<std::uint32_t>(i);
+      std::memcpy(d.records.data() + o * step, r + 8, step);
+    }
+    else
+    {
+      std::memcpy(&d.src_tile[o], r + 8, 4);
+      std::memcpy(&d.src_index[o], r + 12, 4);
+      std::memcpy(d.records.data() + o * step, r + 16, step);
+    }
+  }
+  return d;
+}
+
+/// The per-point values of phase A, packed.
+struct AttrView
+{
+  const std::vector<std::uint8_t>& bytes;
+  Eigen::Vector3f normal(std::size_t i) const
+  {
+    Eigen::Vector3f n;
+    std::memcpy(n.data(), bytes.data() + i * kAttrBytes, 12);
+    return n;
+  }
+  double value(std::size_t i, int which) const  // 0 weight, 1 measure, 2 curvature
+  {
+    double v;
+    std::memcpy(&v, bytes.data() + i * kAttrBytes + 12 + 8 * which, 8);
+    return v;
+  }
+};
+
+void Runner::phaseA(int t)
+{
+  TileData d = loadTile(t);
+  const std::size_t n = d.size();
+  const int k = params_.k_neighbors;
+  if (n <= static_cast<std::size_t>(k))
+    failRun("tile " + std::to_string(t) + " holds only " + std::to_string(n) + " points; K = " + std::to_string(k));
+  NanoflannSearch tree;
+  tree.setInputCloud(d.cloud);
+  NeighborhoodTable table;
+  computeNeighborhoods(*d.cloud, tree, k, tile_threads_, table);
+  NormalList normals;
+  estimateNormals(*d.cloud, table, tile_threads_, normals);
+  std::vector<double> weights, measure, curvature;
+  computeDensityWeights(table, weights);
+  computeFeatureMeasure(*d.cloud, normals, table, tile_threads_, measure);
+  const std::vector<std::uint8_t> none(n, 0);
+  computeMeanCurvature(*d.cloud, normals, table, none, tile_threads_, curvature);
+  std::vector<std::uint8_t> attr(n * kAttrBytes);
+  // Sums over this tile's own points (each point counted once in all): Σ measure, count,
+  // neighbourhoods that reach past the halo.
+  const Tile& tile = plan_.tree.tiles[static_cast<std::size_t>(t)];
+  const Eigen::Vector3d origin = plan_.origin();
+  std::vector<double> sums(3, 0.0);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    std::uint8_t* a = attr.data() + i * kAttrBytes;
+    std::memcpy(a, normals[i].data(), 12);
+    std::memcpy(a + 12, &weights[i], 8);
+    std::memcpy(a + 20, &measure[i], 8);
+    std::memcpy(a + 28, &curvature[i], 8);
+    if (!d.is_core[i])
+      continue;
+    sums[0] += measure[i];
+    sums[1] += 1.0;
+    const Eigen::Vector3d p = (*d.cloud)[i].getVector3fMap().cast<double>() + origin;
+    const double u = p[plan_.axis_u], v = p[plan_.axis_v];
+    const double room = std::min({u - (tile.lo[0] - plan_.halo), (tile.hi[0] + plan_.halo) - u,
+                                  v - (tile.lo[1] - plan_.halo), (tile.hi[1] + plan_.halo) - v});
+    if (std::sqrt(static_cast<double>(table.sqrDistances(i)[k - 1])) > room)
+      sums[2] += 1.0;
+  }
+  fs::create_directories(paths_.root / "a");
+  writeVectorAtomic(paths_.attr(t), attr);
+  writeVectorAtomic(paths_.sumA(t), sums);  // the marker: written last
+}
+
+void Runner::phaseB(int t)
+{
+  TileData d = loadTile(t);
+  const std::size_t n = d.size();
+  const auto attr_bytes = readVector<std::uint8_t>(paths_.attr(t));
+  const AttrView attr{attr_bytes};
+  std::vector<double> measure(n);
+  for (std::size_t i = 0; i < n; ++i)
+    measure[i] = attr.value(i, 1);
+  std::vector<std::uint8_t> is_feature;
+  classifyFeatures(measure, delta_, is_feature);
+  NanoflannSearch tree;
+  tree.setInputCloud(d.cloud);
+  NeighborhoodTable table;
+  computeNeighborhoods(*d.cloud, tree, params_.k_neighbors, tile_threads_, table);
+  auto nonfeature = std::make_shared<pcl::Indices>();
+  for (std::size_t i = 0; i < n; ++i)
+    if (!is_feature[i])
+      nonfeature->push_back(static_cast<int>(i));
+  NanoflannSearch nonfeature_tree;
+  nonfeature_tree.setInputCloud(d.cloud, nonfeature);
+  std::vector<double> density;
+  computeLocalDensity(*d.cloud, table, is_feature, nonfeature_tree, tile_threads_, density);
+  // Σ dens, Σ sqrt(a), Σ |H|, non-feature count, feature count (own points only)
+  std::vector<double> sums(5, 0.0);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    if (!d.is_core[i])
+      continue;
+    if (is_feature[i])
+    {
+      sums[4] += 1.0;
+      continue;
+    }
+    sums[0] += density[i];
+    sums[1] += std::sqrt(attr.value(i, 0));
+    sums[2] += std::abs(attr.value(i, 2));
+    sums[3] += 1.0;
+  }
+  fs::create_directories(paths_.root / "b");
+  writeVectorAtomic(paths_.dens(t), density);
+  writeVectorAtomic(paths_.sumB(t), sums);
+}
+
+void Runner::phaseC(int t)
+{
+  TileData d = loadTile(t);
+  const std::size_t n = d.size();
+  const std::size_t step = header_.point_step;
+  const auto attr_bytes = readVector<std::uint8_t>(paths_.attr(t));
+  const AttrView attr{attr_bytes};
+  const auto density = readVector<double>(paths_.dens(t));
+  NormalList normals(n);
+  std::vector<double> weights(n), measure(n), curvature(n);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    normals[i] = attr.normal(i);
+    weights[i] = attr.value(i, 0);
+    measure[i] = attr.value(i, 1);
+    curvature[i] = attr.value(i, 2);
+  }
+  std::vector<std::uint8_t> is_feature;
+  classifyFeatures(measure, delta_, is_feature);
+  for (std::size_t i = 0; i < n; ++i)
+    if (is_feature[i])
+      curvature[i] = 0.0;  // as computeMeanCurvature gives feature points
+
+  // Points covered already: claims written by tiles of earlier colours (all finished).
+  const int colour = plan_.tree.tiles[static_cast<std::size_t>(t)].colour;
+  std::vector<int> sources;
+  for (std::size_t i = 0; i < n; ++i)
+    sources.push_back(static_cast<int>(d.src_tile[i]));
+  std::sort(sources.begin(), sources.end());
+  sources.erase(std::unique(sources.begin(), sources.end()), sources.end());
+  std::vector<std::uint8_t> pre_covered(n, 0);
+  for (const int s : sources)
+  {
+    std::vector<std::uint8_t> covered(plan_.tree.tiles[static_cast<std::size_t>(s)].core_points, 0);
+    bool any = false;
+    for (std::size_t w = 0; w < plan_.tree.tiles.size(); ++w)
+    {
+      if (plan_.tree.tiles[w].colour >= colour || !fs::exists(paths_.claims(s, static_cast<int>(w))))
+        continue;
+      for (const std::uint32_t idx : readVector<std::uint32_t>(paths_.claims(s, static_cast<int>(w))))
+        if (idx < covered.size())
+        {
+          covered[idx] = 1;
+          any = true;
+        }
+    }
+    if (!any)
+      continue;
+    for (std::size_t i = 0; i < n; ++i)
+      if (static_cast<int>(d.src_tile[i]) == s && covered[d.src_index[i]])
+        pre_covered[i] = 1;
+  }
+
+  auto nonfeature = std::make_shared<pcl::Indices>();
+  for (std::size_t i = 0; i < n; ++i)
+    if (!is_feature[i])
+      nonfeature->push_back(static_cast<int>(i));
+  NanoflannSearch nonfeature_tree;
+  nonfeature_tree.setInputCloud(d.cloud, nonfeature);
+  CoverInput in{*d.cloud,          normals,      weights,     is_feature, curvature, density, mean_abs_h_,
+                mean_spacing_,     neighborhood_radius_, summary_.bbox_diagonal, nonfeature_tree};
+  in.centre_allowed = &d.is_core;
+  in.pre_covered = &pre_covered;
+  Parameters p = params_;
+  p.threads = tile_threads_;
+  CoverOutput cover;
+  coverWithBalls(in, p, params_.error_threshold, cover);
+
+  // Output: own feature points in input order, then the balls.
+  const io::XyzAccess xyz(header_);
+  const int nx = header_.fieldIndex("normal_x"), ny = header_.fieldIndex("normal_y"), nz = header_.fieldIndex("normal_z");
+  const bool has_normals = nx >= 0 && ny >= 0 && nz >= 0;
+  auto setNormal = [&](std::uint8_t* rec, Eigen::Vector3f nrm, const Eigen::Vector3d& at) {
+    if (!has_normals)
+      return;
+    if ((viewpoint_local_ - at).dot(nrm.cast<double>()) < 0.0)
+      nrm = -nrm;
+    const int f[3] = {nx, ny, nz};
+    for (int a = 0; a < 3; ++a)
+    {
+      const auto& field = header_.fields[static_cast<std::size_t>(f[a])];
+      io::storeFieldValue(nrm[a], field.datatype, rec + field.offset);
+    }
+  };
+  std::vector<std::size_t> features;
+  for (std::size_t i = 0; i < n; ++i)
+    if (d.is_core[i] && is_feature[i])
+      features.push_back(i);
+  std::sort(features.begin(), features.end(), [&](std::size_t a, std::size_t b) { return d.gid[a] < d.gid[b]; });
+  std::vector<std::uint8_t> out((features.size() + cover.balls.size()) * step);
+  std::vector<double> stats(4, 0.0);  // features, balls, max error, (unused)
+  std::size_t o = 0;
+  for (const std::size_t i : features)
+  {
+    std::uint8_t* rec = out.data() + (o++) * step;
+    std::memcpy(rec, d.records.data() + i * step, step);
+    setNormal(rec, normals[i], (*d.cloud)[i].getVector3fMap().cast<double>());
+  }
+  const Eigen::Vector3d origin = plan_.origin();
+  for (const CoverBall& b : cover.balls)
+  {
+    std::uint8_t* rec = out.data() + (o++) * step;
+    std::memcpy(rec, d.records.data() + static_cast<std::size_t>(b.attribute_source) * step, step);
+    const Eigen::Vector3d world = b.representative + origin;
+    // Written through float like the in-memory filter's PCL point types.
+    xyz.set(rec, static_cast<float>(world.x()), static_cast<float>(world.y()), static_cast<float>(world.z()));
+    setNormal(rec, b.normal, b.representative);
+    stats[2] = std::max(stats[2], b.error);
+  }
+  stats[0] = static_cast<double>(features.size());
+  stats[1] = static_cast<double>(cover.balls.size());
+
+  // Claims, by the tile that owns the point (this tile's own included).
+  std::vector<std::vector<std::uint32_t>> claims(plan_.tree.tiles.size());
+  for (std::size_t i = 0; i < n; ++i)
+    if (cover.owner[i] >= 0)
+      claims[d.src_tile[i]].push_back(d.src_index[i]);
+  fs::create_directories(paths_.root / "c");
+  for (std::size_t s = 0; s < claims.size(); ++s)
+    if (!claims[s].empty())
+    {
+      std::sort(claims[s].begin(), claims[s].end());
+      writeVectorAtomic(paths_.claims(static_cast<int>(s), t), claims[s]);
+    }
+  writeVectorAtomic(paths_.out(t), out);
+  writeVectorAtomic(paths_.doneC(t), stats);
+}
+
+void Runner::runStage(const char* name, int index, const std::vector<int>& todo, const std::function<void(int)>& fn)
+{
+  const auto t0 = Clock::now();
+  std::uint64_t total_points = 0;
+  for (const int t : todo)
+  {
+    const Tile& tile = plan_.tree.tiles[static_cast<std::size_t>(t)];
+    total_points += tile.core_points;
+  }
+  std::atomic<std::uint64_t> done_points{0};
+  std::atomic<std::size_t> done_tiles{0};
+  forEachTile(todo, workers_, [&](int t) {
+    fn(t);
+    const Tile& tile = plan_.tree.tiles[static_cast<std::size_t>(t)];
+    const std::uint64_t pts = done_points += tile.core_points;
+    const std::size_t tiles = ++done_tiles;
+    const double s = secondsSince(t0);
+    const double rate = s > 0 ? static_cast<double>(pts) / s : 0.0;
+    std::ostringstream os;
+    os << name << ": tile " << tiles << "/" << todo.size() << ", " << std::fixed << std::setprecision(2)
+       << rate / 1e6 << " M points/s, ETA " << std::setprecision(0)
+       << (rate > 0 ? static_cast<double>(total_points - pts) / rate : 0.0) << " s";
+    report(os.str());
+    stepDone();
+  });
+  summary_.stage_seconds[static_cast<std::size_t>(index)] += secondsSince(t0);
+}
+
+void Runner::writeOutput()
+{
+  const auto t0 = Clock::now();
+  io::PcdStreamWriter writer(output_, header_.fields, header_.point_step, header_.viewpoint);
+  for (std::size_t t = 0; t < plan_.tree.tiles.size(); ++t)
+  {
+    std::ifstream f(paths_.out(static_cast<int>(t)), std::ios::binary);
+    if (!f)
+      failRun("cannot read the scratch file " + paths_.out(static_cast<int>(t)).string());
+    std::vector<std::uint8_t> buf(static_cast<std::size_t>(header_.point_step) * kChunk);
+    for (;;)
+    {
+      f.read(reinterpret_cast<char*>(buf.data()), static_cast<std::streamsize>(buf.size()));
+      const std::size_t got = static_cast<std::size_t>(f.gcount());
+      if (got == 0)
+        break;
+      writer.append(buf.data(), got / header_.point_step);
+    }
+  }
+  summary_.output_points = writer.written();
+  writer.commit();
+  summary_.stage_seconds[5] = secondsSince(t0);
+}
+
+StreamSummary Runner::run()
+{
+  const auto t0 = Clock::now();
+  const std::string bad = validate(params_);
+  if (!bad.empty())
+    failRun(bad);
+  if (params_.target_size != 0)
+    failRun("--stream works with an error threshold (--terr), not a target size: pick T_err on a "
+            "sample of the scan first (docs/STREAMING.md)");
+  if (params_.use_input_normals)
+    failRun("--stream estimates the normals; --use-input-normals is not supported with it");
+  const int threads = resolveThreads(params_.threads);
+  workers_ = std::min(threads, kConcurrentTiles);
+  tile_threads_ = std::max(1, threads / workers_);
+  memory_limit_ = options_.memory_limit;
+  if (memory_limit_ == 0)
+    memory_limit_ = std::max<std::uint64_t>(256ull << 20, physicalMemory() / 4);
+  if (memory_limit_ < (64ull << 20))
+    failRun("--memory-limit must be at least 64M");
+  const std::string why = io::checkWritable(output_);
+  if (!why.empty())
+    failRun(output_ + ": " + why);
+
+  paths_.root = options_.scratch_dir.empty() ? fs::path(output_ + ".ecs-scratch") : fs::path(options_.scratch_dir);
+  const std::string fingerprint = fingerprintOf(input_, params_, memory_limit_);
+  {
+    io::PcdStreamReader probe(input_);  // the header first: bad input is refused before any work
+    header_ = probe.header();
+    (void)io::XyzAccess(header_);
+  }
+  std::error_code ec;
+  if (fs::exists(paths_.root, ec))
+  {
+    if (!fs::exists(paths_.root / kScratchMarker) && !fs::is_empty(paths_.root, ec))
+      failRun("the scratch directory " + paths_.root.string() +
+              " exists and was not made by pcl_ecs: choose another with --scratch");
+  }
+  if (loadPlan(paths_, fingerprint, plan_))
+  {
+    summary_.resumed = true;
+    report("resuming from " + paths_.root.string());
+  }
+  else
+  {
+    fs::remove_all(paths_.root, ec);
+    fs::create_directories(paths_.root, ec);
+    if (ec)
+      failRun("cannot create the scratch directory " + paths_.root.string() + ": " + ec.message());
+    std::ofstream(paths_.root / kScratchMarker) << "scratch space of pcd_simplify --stream; safe to delete\n";
+    plan_.fingerprint = fingerprint;
+    try
+    {
+      scanAndPlan();
+      split();
+    }
+    catch (...)
+    {
+      fs::remove_all(paths_.root, ec);  // nothing worth resuming yet
+      throw;
+    }
+  }
+  summary_.input_points = plan_.input_points;
+  summary_.finite_points = plan_.finite_points;
+  summary_.bbox_diagonal = (plan_.hi - plan_.lo).norm();
+  summary_.halo = plan_.halo;
+  summary_.axis_u = plan_.axis_u;
+  summary_.axis_v = plan_.axis_v;
+  summary_.tile_point_budget = plan_.tile_point_budget;
+  viewpoint_local_ = Eigen::Vector3d(header_.viewpoint[0], header_.viewpoint[1], header_.viewpoint[2]) - plan_.origin();
+  const int tiles = static_cast<int>(plan_.tree.tiles.size());
+  auto pending = [&](const std::function<fs::path(int)>& marker) {
+    std::vector<int> todo;
+    for (int t = 0; t < tiles; ++t)
+      if (!fs::exists(marker(t)))
+        todo.push_back(t);
+    return todo;
+  };
+  auto track_scratch = [&]() { summary_.scratch_bytes = std::max(summary_.scratch_bytes, directoryBytes(paths_.root)); };
+
+  // Phase A, then δ over all points.
+  runStage("A (neighbourhoods, normals, eq. 1-3, 7-11)", 2, pending([&](int t) { return paths_.sumA(t); }),
+           [&](int t) { phaseA(t); });
+  double sum_measure = 0.0, count = 0.0, incomplete = 0.0;
+  for (int t = 0; t < tiles; ++t)
+  {
+    const auto s = readVector<double>(paths_.sumA(t));
+    sum_measure += s.at(0);
+    count += s.at(1);
+    incomplete += s.at(2);
+  }
+  delta_ = params_.feature_factor * sum_measure / count;
+  summary_.feature_threshold = delta_;
+  summary_.incomplete_neighbourhoods = static_cast<std::uint64_t>(incomplete);
+  track_scratch();
+
+  // Phase B, then the means of eq. 6 and 12 and the radius unit over all non-feature points.
+  runStage("B (features, eq. 5)", 3, pending([&](int t) { return paths_.sumB(t); }), [&](int t) { phaseB(t); });
+  double sb[5] = {0, 0, 0, 0, 0};
+  for (int t = 0; t < tiles; ++t)
+  {
+    const auto s = readVector<double>(paths_.sumB(t));
+    for (std::size_t i = 0; i < 5; ++i)
+      sb[i] += s.at(i);
+  }
+  const double nonfeature = std::max(1.0, sb[3]);
+  mean_spacing_ = sb[0] / nonfeature;
+  neighborhood_radius_ = sb[1] / nonfeature;
+  mean_abs_h_ = sb[2] / nonfeature;
+  summary_.mean_spacing = mean_spacing_;
+  summary_.neighborhood_radius = neighborhood_radius_;
+  summary_.mean_abs_curvature = mean_abs_h_;
+  cap_ = params_.radius_cap_factor * neighborhood_radius_;
+  if (cap_ > plan_.halo)
+  {
+    summary_.halo_too_narrow = true;
+    report("warning: the largest ball (" + std::to_string(cap_) + ") is wider than the halo (" +
+           std::to_string(plan_.halo) + "); balls at tile borders may be cut");
+  }
+  // Tiles closer than two ball radii interact: they get different colours and run one after another.
+  const int colours = colourTiles(plan_.tree.tiles, 2.0 * cap_ * 1.001 + 1e-12);
+  track_scratch();
+
+  for (int c = 0; c < colours; ++c)
+  {
+    std::vector<int> todo;
+    for (int t = 0; t < tiles; ++t)
+      if (plan_.tree.tiles[static_cast<std::size_t>(t)].colour == c && !fs::exists(paths_.doneC(t)))
+        todo.push_back(t);
+    const std::string name = "C (cover, colour " + std::to_string(c + 1) + "/" + std::to_string(colours) + ")";
+    runStage(name.c_str(), 4, todo, [&](int t) { phaseC(t); });
+  }
+  for (int t = 0; t < tiles; ++t)
+  {
+    const auto s = readVector<double>(paths_.doneC(t));
+    summary_.feature_points += static_cast<std::uint64_t>(s.at(0));
+    summary_.balls += static_cast<std::uint64_t>(s.at(1));
+    summary_.max_error = std::max(summary_.max_error, s.at(2));
+  }
+  track_scratch();
+  writeOutput();
+  summary_.tiles = plan_.tree.tiles;
+  if (!options_.keep_scratch)
+    fs::remove_all(paths_.root, ec);
+  summary_.seconds = secondsSince(t0);
+  return summary_;
+}
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+StreamSummary simplifyOutOfCore(const std::string& input, const std::string& output, const Parameters& params,
+                                const StreamOptions& options)
+{
+  Runner runner(input, output, params, options);
+  return runner.run();
+}
+
+bool parseByteSize(const std::string& text, std::uint64_t& bytes)
+{
+  if (text.empty())
+    return false;
+  std::size_t used = 0;
+  double value = 0.0;
+  try
+  {
+    value = std::stod(text, &used);
+  }
+  catch (const std::exception&)
+  {
+    return false;
+  }
+  std::string unit = text.substr(used);
+  if (unit.size() > 1 && (unit.back() == 'B' || unit.back() == 'b'))
+    unit.pop_back();
+  if (unit.size() > 1 && (unit.back() == 'i'))
+    unit.pop_back();
+  double mult = 1.0;
+  if (unit.empty())
+    mult = 1.0;
+  else if (unit == "K" || unit == "k")
+    mult = 1024.0;
+  else if (unit == "M" || unit == "m")
+    mult = 1024.0 * 1024.0;
+  else if (unit == "G" || unit == "g")
+    mult = 1024.0 * 1024.0 * 1024.0;
+  else if (unit == "T" || unit == "t")
+    mult = 1024.0 * 1024.0 * 1024.0 * 1024.0;
+  else
+    return false;
+  if (!std::isfinite(value) || value <= 0.0 || value * mult > 1e18)
+    return false;
+  bytes = static_cast<std::uint64_t>(value * mult);
+  return true;
+}
+
+std::uint64_t physicalMemory()
+{
+  const long pages = ::sysconf(_SC_PHYS_PAGES);
+  const long page = ::sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && page > 0 ? static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page) : 0;
+}
+
+std::vector<Tile> planTiles(const std::vector<std::array<double, 2>>& sample, std::size_t max_per_tile)
+{
+  return buildTileTree(sample, std::max<std::size_t>(1, max_per_tile)).tiles;
+}
+
+double tileDistance(const Tile& a, const Tile& b)
+{
+  const double du = std::max({0.0, a.lo[0] - b.hi[0], b.lo[0] - a.hi[0]});
+  const double dv = std::max({0.0, a.lo[1] - b.hi[1], b.lo[1] - a.hi[1]});
+  return std::sqrt(du * du + dv * dv);
+}
+
+int colourTiles(std::vector<Tile>& tiles, double separation)
+{
+  int colours = 0;
+  for (std::size_t i = 0; i < tiles.size(); ++i)
+  {
+    std::vector<std::uint8_t> used(static_cast<std::size_t>(colours) + 1, 0);
+    for (std::size_t j = 0; j < i; ++j)
+      if (tileDistance(tiles[i], tiles[j]) < separation)
+        used[static_cast<std::size_t>(tiles[j].colour)] = 1;
+    int c = 0;
+    while (used[static_cast<std::size_t>(c)])
+      ++c;
+    tiles[i].colour = c;
+    colours = std::max(colours, c + 1);
+  }
+  return colours;
+}
+
+}  // namespace stream
+}  // namespace pcl_ecs

@@ -1,0 +1,163 @@
+// pcd_simplify --stream and pcd_make_scan as users run them: a generated multi-scan input, a run
+// killed midway and started again (same bytes as an uninterrupted run), peak memory under the
+// limit, progress on stderr, and refusals with their exit codes and nothing left behind.
+#include "cli_fixture.h"
+
+#include <pcl_ecs/io/pcd_stream.h>
+
+#include <csignal>
+#include <filesystem>
+#include <set>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace fs = std::filesystem;
+using pcl_ecs_test::RunResult;
+using pcl_ecs_test::slurp;
+
+namespace
+{
+const std::string kSimplify = PCD_SIMPLIFY_PATH;
+const std::string kMakeScan = PCD_MAKE_SCAN_PATH;
+const std::string kShared = PCL_ECS_SHARED_DATA_DIR;
+#ifdef PCL_ECS_SANITIZED
+constexpr bool kSanitized = true;
+#else
+constexpr bool kSanitized = false;
+#endif
+
+class StreamCli : public pcl_ecs_test::TempDirTest
+{
+protected:
+  std::string makeScan(const std::string& name, std::size_t points, const std::string& extra = "")
+  {
+    const RunResult r = runTool(kMakeScan, kShared + "/bunny_mesh.ply " + path(name) + " --points " +
+                                               std::to_string(points) + " --quiet " + extra);
+    EXPECT_EQ(r.code, 0) << r.err;
+    return path(name);
+  }
+  std::set<std::string> entries() const
+  {
+    std::set<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir_))
+      names.insert(e.path().filename().string());
+    return names;
+  }
+};
+}  // namespace
+
+TEST_F(StreamCli, GeneratorWritesTheAskedSizeWithVaryingDensity)
+{
+  const std::string scan = makeScan("scan.pcd", 100000, "--scans 4 --seed 3");
+  pcl_ecs::io::PcdStreamReader r(scan);
+  EXPECT_EQ(r.header().points, 100000u);
+  ASSERT_EQ(r.header().fieldIndex("scan"), 4);
+  std::vector<std::uint8_t> rec;
+  std::size_t per_scan[4] = {0, 0, 0, 0};
+  while (r.read(10000, rec) > 0)
+    for (std::size_t i = 0; i < rec.size() / r.header().point_step; ++i)
+      ++per_scan[rec[i * r.header().point_step + 16]];
+  for (const std::size_t c : per_scan)
+    EXPECT_EQ(c, 25000u);
+  // Same seed, same bytes; another seed, other bytes.
+  EXPECT_EQ(slurp(makeScan("again.pcd", 100000, "--scans 4 --seed 3")), slurp(scan));
+  EXPECT_NE(slurp(makeScan("other.pcd", 100000, "--scans 4 --seed 4")), slurp(scan));
+  const RunResult bad = runTool(kMakeScan, kShared + "/bunny_mesh.ply " + path("x.pcd") + " --points 0");
+  EXPECT_EQ(bad.code, 2);
+  const RunResult missing = runTool(kMakeScan, path("nope.ply") + " " + path("x.pcd") + " --points 10");
+  EXPECT_EQ(missing.code, 3);
+  EXPECT_FALSE(fs::exists(path("x.pcd")));
+}
+
+TEST_F(StreamCli, KilledRunResumesToTheSameBytes)
+{
+  const std::string scan = makeScan("scan.pcd", kSanitized ? 40000 : 300000);
+  const std::string common = scan + " %s --stream --memory-limit 64M --scratch " + path("scratch") + " --stats " +
+                             path("%s.json");
+  auto args = [&](const std::string& out) {
+    std::string a = common;
+    a.replace(a.find("%s"), 2, path(out));
+    a.replace(a.find("%s"), 2, out);
+    return a;
+  };
+  const RunResult whole = runTool(kSimplify, args("whole.pcd") + " --quiet");
+  ASSERT_EQ(whole.code, 0) << whole.err;
+  ASSERT_FALSE(fs::exists(path("scratch")));
+  const auto j = nlohmann::json::parse(slurp(path("whole.pcd.json")));
+  const std::size_t tiles = j["tiles"]["list"].size();
+  ASSERT_GE(tiles, 3u);
+  // Killed in phase B (after every tile of phase A and one of B), then in phase C.
+  for (const std::size_t kill_at : {tiles + 1, 2 * tiles + 1})
+  {
+    SCOPED_TRACE("killed after step " + std::to_string(kill_at));
+    const RunResult killed = runTool(kSimplify, args("again.pcd") + " --quiet --debug-kill-after " + std::to_string(kill_at));
+    EXPECT_EQ(killed.signal, SIGKILL) << killed.err;
+    EXPECT_FALSE(fs::exists(path("again.pcd")));
+    EXPECT_TRUE(fs::exists(path("scratch")));
+    const RunResult resumed = runTool(kSimplify, args("again.pcd"));
+    ASSERT_EQ(resumed.code, 0) << resumed.err;
+    EXPECT_NE(resumed.err.find("resuming"), std::string::npos) << resumed.err;
+    EXPECT_EQ(slurp(path("again.pcd")), slurp(path("whole.pcd")));
+    EXPECT_TRUE(nlohmann::json::parse(slurp(path("again.pcd.json")))["resumed"].get<bool>());
+    fs::remove(path("again.pcd"));
+  }
+  EXPECT_FALSE(fs::exists(path("scratch")));
+}
+
+TEST_F(StreamCli, PeakMemoryStaysUnderTheLimit)
+{
+  if (kSanitized)
+    GTEST_SKIP() << "sanitizers change memory use; the Release run checks it";
+  const std::string scan = makeScan("big.pcd", 3000000, "--scans 8");
+  const RunResult r = runTool(kSimplify, scan + " " + path("out.pcd") + " --stream --memory-limit 256M --stats " +
+                                             path("s.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_LT(r.peak_rss_kib, 256L * 1024) << "peak RSS " << r.peak_rss_kib / 1024 << " MiB";
+  const auto j = nlohmann::json::parse(slurp(path("s.json")));
+  EXPECT_GE(j["tiles"]["list"].size(), 4u);
+  EXPECT_EQ(j["counts"]["finite_points"].get<std::size_t>(), 3000000u);
+  // Progress lines on stderr: tiles done, rate, ETA.
+  EXPECT_NE(r.err.find("M points/s, ETA"), std::string::npos) << r.err;
+  // The output keeps the input's fields.
+  pcl_ecs::io::PcdStreamReader out(path("out.pcd"));
+  EXPECT_GE(out.header().fieldIndex("intensity"), 0);
+  EXPECT_GE(out.header().fieldIndex("scan"), 0);
+}
+
+TEST_F(StreamCli, RefusalsLeaveNothingBehind)
+{
+  const std::string scan = makeScan("scan.pcd", 20000);
+  const std::set<std::string> before = entries();
+  struct Case
+  {
+    std::string args;
+    int code;
+    std::string message;
+  };
+  const std::vector<Case> cases = {
+      {scan + " " + path("o.pcd") + " --stream --target-ratio 0.1", 2, "--terr"},
+      {scan + " " + path("o.pcd") + " --stream --mesh " + path("m.ply"), 2, "in-memory"},
+      {scan + " " + path("o.pcd") + " --stream --memory-limit lots", 2, "not a size"},
+      {scan + " " + path("o.pcd") + " --stream --memory-limit 1M", 2, "at least 64M"},
+      {scan + " " + path("o.pcd") + " --memory-limit 1G", 2, "need --stream"},
+      {scan + " " + path("o.ply") + " --stream", 2, ".pcd"},
+      {path("missing.pcd") + " " + path("o.pcd") + " --stream", 3, "no such file"},
+      {scan + " " + path("nodir/o.pcd") + " --stream", 4, "nodir"},
+  };
+  for (const Case& c : cases)
+  {
+    const RunResult r = runTool(kSimplify, c.args);
+    EXPECT_EQ(r.code, c.code) << c.args << "\n" << r.err;
+    EXPECT_NE(r.err.find(c.message), std::string::npos) << c.args << "\n" << r.err;
+    EXPECT_EQ(entries(), before) << c.args;
+  }
+  // A truncated input: refused before any work, nothing written.
+  fs::copy_file(scan, path("cut.pcd"));
+  fs::resize_file(path("cut.pcd"), fs::file_size(scan) / 2);
+  const RunResult r = runTool(kSimplify, path("cut.pcd") + " " + path("o.pcd") + " --stream");
+  EXPECT_EQ(r.code, 3) << r.err;
+  EXPECT_NE(r.err.find("truncated"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("o.pcd")));
+  EXPECT_FALSE(fs::exists(path("o.pcd.ecs-scratch")));
+}
