@@ -17,7 +17,7 @@
 
 #include <pcl/PolygonMesh.h>
 #include <pcl/conversions.h>
-#include <pcl/io/vtk_lib_io.h>
+#include <pcl/io/ply_io.h>
 #include <pcl/point_types.h>
 
 using namespace pcl_ecs;
@@ -27,7 +27,7 @@ namespace
 {
 const char* kUsage = R"(Usage: pcd_make_scan MESH OUTPUT.pcd --points N [options]
 
-Writes N points sampled on MESH (PLY, OBJ, VTK, STL) as S simulated range scans from scanner
+Writes N points sampled on MESH (PLY) as S simulated range scans from scanner
 positions spread around the model: a scan sees a face with density proportional to
 |cos(incidence)| / distance², so the point density varies across the surface and the scans overlap.
 Fields: x y z intensity (float; intensity = |cos(incidence)|) and scan (uint8). Memory does not grow
@@ -116,7 +116,7 @@ int run(int argc, char** argv)
   if (!std::filesystem::is_regular_file(pos[0], ec))
     throw ToolError(kExitInput, pos[0] + ": no such file");
   pcl::PolygonMesh mesh;
-  if (pcl::io::loadPolygonFile(pos[0], mesh) <= 0 || mesh.polygons.empty())
+  if (pcl::io::loadPLYFile(pos[0], mesh) < 0 || mesh.polygons.empty())
     throw ToolError(kExitInput, pos[0] + ": cannot read a mesh with faces from it");
   pcl::PointCloud<pcl::PointXYZ> v;
   pcl::fromPCLPointCloud2(mesh.cloud, v);

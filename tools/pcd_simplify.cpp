@@ -60,6 +60,8 @@ Scans larger than memory (PCD in, binary PCD out; docs/STREAMING.md):
   --scratch DIR       scratch directory (default OUTPUT.ecs-scratch); needs about 1.3 × the
                       input's size; removed on success
   --keep-scratch      keep the scratch directory after success
+  --tile-points N     largest tile, own points + halo (default: from --memory-limit); smaller
+                      tiles, more of them: for experiments and tests
 
 Output:
   --ascii             write ASCII PCD / PLY
@@ -102,7 +104,7 @@ struct Options
   io::Encoding encoding = io::Encoding::Binary;
   bool labels = false, quiet = false, verbose = false;
   bool stream = false, keep_scratch = false, encoding_given = false;
-  std::uint64_t memory_limit = 0, kill_after = 0;
+  std::uint64_t memory_limit = 0, kill_after = 0, tile_points = 0;
   std::string scratch;
 };
 
@@ -165,6 +167,12 @@ Options parseArgs(int argc, char** argv, bool& done)
       o.scratch = value();
     else if (a == "--keep-scratch")
       o.keep_scratch = true;
+    else if (a == "--tile-points")
+    {
+      o.tile_points = parseUnsignedFlag(a, value());
+      if (o.tile_points < 1000)
+        throw UsageError("--tile-points: must be at least 1000");
+    }
     else if (a == "--debug-kill-after")  // tests: SIGKILL after N tile steps
       o.kill_after = parseUnsignedFlag(a, value());
     else if (a == "--features")
@@ -203,8 +211,8 @@ Options parseArgs(int argc, char** argv, bool& done)
     if (io::formatFromPath(o.input) != io::Format::Pcd || io::formatFromPath(o.output) != io::Format::Pcd)
       throw UsageError("--stream reads and writes .pcd files");
   }
-  else if (o.memory_limit || !o.scratch.empty() || o.keep_scratch || o.kill_after)
-    throw UsageError("--memory-limit, --scratch and --keep-scratch need --stream");
+  else if (o.memory_limit || !o.scratch.empty() || o.keep_scratch || o.kill_after || o.tile_points)
+    throw UsageError("--memory-limit, --scratch, --keep-scratch and --tile-points need --stream");
   const std::string why = validate(o.params);
   if (!why.empty())
     throw UsageError(why);
@@ -395,6 +403,7 @@ int runStream(const Options& o)
   so.scratch_dir = o.scratch;
   so.keep_scratch = o.keep_scratch;
   so.kill_after_steps = o.kill_after;
+  so.max_tile_points = o.tile_points;
   if (!o.quiet)
     so.progress = [](const std::string& line) { std::fprintf(stderr, "pcd_simplify: %s\n", line.c_str()); };
   stream::StreamSummary s;

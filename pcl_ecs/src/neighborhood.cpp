@@ -27,20 +27,35 @@ Status computeNeighborhoods(const LocalCloud& cloud, const pcl::search::Search<p
 #pragma omp for schedule(dynamic, 2048)
     for (std::ptrdiff_t i = 0; i < n; ++i)
     {
-      // k + 1 because the point finds itself (or a duplicate of itself) first.
-      search.nearestKSearch(cloud[i], k + 1, found, d2);
-      row.clear();
-      bool self_seen = false;
-      for (std::size_t j = 0; j < found.size(); ++j)
+      // k + 1 because the point finds itself (or a duplicate of itself) first, + 1 to see past
+      // the k-th distance: when points tie at that distance, which of them a back end returns
+      // depends on its tree, so ask for more until every tied point is in (then the smallest
+      // indices win, whatever the tree: a tile of the out-of-core path and the whole cloud agree).
+      int ask = k + 2;
+      for (;;)
       {
-        if (!self_seen && found[j] == i)
+        search.nearestKSearch(cloud[i], std::min<int>(ask, static_cast<int>(n)), found, d2);
+        row.clear();
+        bool self_seen = false;
+        for (std::size_t j = 0; j < found.size(); ++j)
         {
-          self_seen = true;
-          continue;
+          if (!self_seen && found[j] == i)
+          {
+            self_seen = true;
+            continue;
+          }
+          row.emplace_back(d2[j], found[j]);
         }
-        row.emplace_back(d2[j], found[j]);
+        std::sort(row.begin(), row.end());  // distance, then index: independent of the back end
+        const bool complete = static_cast<std::ptrdiff_t>(found.size()) < ask || ask >= n ||
+                              row.size() <= static_cast<std::size_t>(k) ||
+                              row.back().first > row[static_cast<std::size_t>(k) - 1].first;
+        if (complete && self_seen)
+          break;
+        if (ask >= n)
+          break;
+        ask = static_cast<int>(std::min<std::ptrdiff_t>(n, 2 * static_cast<std::ptrdiff_t>(ask)));
       }
-      std::sort(row.begin(), row.end());  // distance, then index: independent of the back end
       row.resize(std::min<std::size_t>(row.size(), static_cast<std::size_t>(k)));
       // A back end may return fewer than k + 1 (it should not with n > k); repeat the last.
       while (row.size() < static_cast<std::size_t>(k))

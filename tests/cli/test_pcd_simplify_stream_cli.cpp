@@ -72,8 +72,9 @@ TEST_F(StreamCli, GeneratorWritesTheAskedSizeWithVaryingDensity)
 
 TEST_F(StreamCli, KilledRunResumesToTheSameBytes)
 {
-  const std::string scan = makeScan("scan.pcd", kSanitized ? 40000 : 300000);
-  const std::string common = scan + " %s --stream --memory-limit 64M --scratch " + path("scratch") + " --stats " +
+  const std::size_t points = kSanitized ? 40000 : 300000;
+  const std::string scan = makeScan("scan.pcd", points);
+  const std::string common = scan + " %s --stream --tile-points " + std::to_string(points / 4) + " --scratch " + path("scratch") + " --stats " +
                              path("%s.json");
   auto args = [&](const std::string& out) {
     std::string a = common;

@@ -260,6 +260,7 @@ struct Paths
   fs::path halo(int t) const { return root / "tiles" / (std::to_string(t) + ".halo"); }
   fs::path attr(int t) const { return root / "a" / (std::to_string(t) + ".attr"); }
   fs::path sumA(int t) const { return root / "a" / (std::to_string(t) + ".sum"); }
+  fs::path frontier(int t) const { return root / "a" / (std::to_string(t) + ".front"); }
   fs::path dens(int t) const { return root / "b" / (std::to_string(t) + ".dens"); }
   fs::path sumB(int t) const { return root / "b" / (std::to_string(t) + ".sum"); }
   fs::path out(int t) const { return root / "c" / (std::to_string(t) + ".out"); }
@@ -585,7 +586,9 @@ void Runner::scanAndPlan()
   // Tile size: a tile and its halo must fit the budget of one of kConcurrentTiles workers.
   const double bytes_per_point = 420.0 + 2.0 * static_cast<double>(step);
   const double budget = 0.7 * static_cast<double>(memory_limit_) / kConcurrentTiles;
-  plan_.tile_point_budget = static_cast<std::uint64_t>(std::max(20000.0, budget / bytes_per_point));
+  plan_.tile_point_budget = options_.max_tile_points > 0
+                                ? options_.max_tile_points
+                                : static_cast<std::uint64_t>(std::max(20000.0, budget / bytes_per_point));
   std::vector<std::array<double, 2>> sample2(sample.size());
   for (std::size_t i = 0; i < sample.size(); ++i)
     sample2[i] = {sample[i][plan_.axis_u], sample[i][plan_.axis_v]};
@@ -839,17 +842,98 @@ void Runner::phaseA(int t)
     if (std::sqrt(static_cast<double>(table.sqrDistances(i)[k - 1])) > room)
       sums[2] += 1.0;
   }
+  // Eq. 5 is the distance to the nearest non-feature neighbour, and which neighbours are features
+  // depends on δ, known only when every tile has passed this phase. Keep, for each own point, the
+  // neighbours whose measure is below that of every nearer one: for any δ the first non-feature
+  // neighbour is among them, so phase B needs neither the points nor a search.
+  std::vector<std::uint8_t> front_count(n, 0xFF);  // 0xFF: a halo point (not needed)
+  std::vector<std::uint8_t> front;
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    if (!d.is_core[i])
+      continue;
+    const int* nb = table.neighbors(i);
+    const float* nd = table.sqrDistances(i);
+    double lowest = std::numeric_limits<double>::infinity();
+    std::uint8_t count = 0;
+    for (int j = 0; j < k; ++j)
+    {
+      const double m = measure[static_cast<std::size_t>(nb[j])];
+      if (!(m < lowest))
+        continue;
+      lowest = m;
+      std::uint8_t entry[12];
+      std::memcpy(entry, &nd[j], 4);
+      std::memcpy(entry + 4, &m, 8);
+      front.insert(front.end(), entry, entry + 12);
+      ++count;
+    }
+    front_count[i] = count;
+  }
+  front_count.insert(front_count.end(), front.begin(), front.end());
   fs::create_directories(paths_.root / "a");
+  writeVectorAtomic(paths_.frontier(t), front_count);
   writeVectorAtomic(paths_.attr(t), attr);
   writeVectorAtomic(paths_.sumA(t), sums);  // the marker: written last
 }
 
 void Runner::phaseB(int t)
 {
-  TileData d = loadTile(t);
-  const std::size_t n = d.size();
   const auto attr_bytes = readVector<std::uint8_t>(paths_.attr(t));
   const AttrView attr{attr_bytes};
+  const std::size_t n = attr_bytes.size() / kAttrBytes;
+  std::vector<double> density(n, 0.0);
+  // Σ dens, Σ sqrt(a), Σ |H|, non-feature count, feature count (own points), 1 if the tile was
+  // loaded for a search
+  std::vector<double> sums(6, 0.0);
+  {
+    // From the neighbour lists of phase A; a point whose K neighbours are all features needs a
+    // search over the non-feature points: then the tile is loaded (below).
+    const auto front = readVector<std::uint8_t>(paths_.frontier(t));
+    std::size_t at = n;
+    bool complete = true;
+    for (std::size_t i = 0; i < n && complete; ++i)
+    {
+      const std::uint8_t count = front[i];
+      if (count == 0xFF)
+        continue;  // a halo point
+      const bool feature = attr.value(i, 1) > delta_;
+      bool found = feature;
+      for (std::uint8_t e = 0; e < count; ++e, at += 12)
+      {
+        if (found)
+          continue;
+        float d2;
+        double m;
+        std::memcpy(&d2, front.data() + at, 4);
+        std::memcpy(&m, front.data() + at + 4, 8);
+        if (!(m > delta_))
+        {
+          density[i] = std::sqrt(static_cast<double>(d2));
+          found = true;
+        }
+      }
+      if (!found)
+        complete = false;
+      else if (feature)
+        sums[4] += 1.0;
+      else
+      {
+        sums[0] += density[i];
+        sums[1] += std::sqrt(attr.value(i, 0));
+        sums[2] += std::abs(attr.value(i, 2));
+        sums[3] += 1.0;
+      }
+    }
+    if (complete)
+    {
+      fs::create_directories(paths_.root / "b");
+      writeVectorAtomic(paths_.dens(t), density);
+      writeVectorAtomic(paths_.sumB(t), sums);
+      return;
+    }
+  }
+  TileData d = loadTile(t);
   std::vector<double> measure(n);
   for (std::size_t i = 0; i < n; ++i)
     measure[i] = attr.value(i, 1);
@@ -865,10 +949,9 @@ void Runner::phaseB(int t)
       nonfeature->push_back(static_cast<int>(i));
   NanoflannSearch nonfeature_tree;
   nonfeature_tree.setInputCloud(d.cloud, nonfeature);
-  std::vector<double> density;
   computeLocalDensity(*d.cloud, table, is_feature, nonfeature_tree, tile_threads_, density);
-  // Σ dens, Σ sqrt(a), Σ |H|, non-feature count, feature count (own points only)
-  std::vector<double> sums(5, 0.0);
+  std::fill(sums.begin(), sums.end(), 0.0);
+  sums[5] = 1.0;
   for (std::size_t i = 0; i < n; ++i)
   {
     if (!d.is_core[i])
@@ -1092,7 +1175,8 @@ StreamSummary Runner::run()
     failRun(output_ + ": " + why);
 
   paths_.root = options_.scratch_dir.empty() ? fs::path(output_ + ".ecs-scratch") : fs::path(options_.scratch_dir);
-  const std::string fingerprint = fingerprintOf(input_, params_, memory_limit_);
+  const std::string fingerprint =
+      fingerprintOf(input_, params_, memory_limit_) + " tile=" + std::to_string(options_.max_tile_points);
   {
     io::PcdStreamReader probe(input_);  // the header first: bad input is refused before any work
     header_ = probe.header();
@@ -1165,13 +1249,14 @@ StreamSummary Runner::run()
 
   // Phase B, then the means of eq. 6 and 12 and the radius unit over all non-feature points.
   runStage("B (features, eq. 5)", 3, pending([&](int t) { return paths_.sumB(t); }), [&](int t) { phaseB(t); });
-  double sb[5] = {0, 0, 0, 0, 0};
+  double sb[6] = {0, 0, 0, 0, 0, 0};
   for (int t = 0; t < tiles; ++t)
   {
     const auto s = readVector<double>(paths_.sumB(t));
-    for (std::size_t i = 0; i < 5; ++i)
+    for (std::size_t i = 0; i < 6; ++i)
       sb[i] += s.at(i);
   }
+  summary_.search_fallback_tiles = static_cast<std::uint64_t>(sb[5]);
   const double nonfeature = std::max(1.0, sb[3]);
   mean_spacing_ = sb[0] / nonfeature;
   neighborhood_radius_ = sb[1] / nonfeature;

@@ -282,7 +282,6 @@ MeshTopology analyzeTopology(std::size_t num_points, const std::vector<Triangle>
   MeshTopology topo;
   topo.triangles = triangles.size();
   std::vector<char> used(num_points, 0);
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> directed;  // (edge key, tri), with direction flag
   std::vector<std::pair<std::uint64_t, int>> dir;
   dir.reserve(triangles.size() * 3);
   for (std::uint32_t t = 0; t < triangles.size(); ++t)
@@ -389,13 +388,6 @@ MeshTopology analyzeTopology(std::size_t num_points, const std::vector<Triangle>
 
   // Components through shared edges.
   UnionFind comp(triangles.size());
-  for (std::size_t i = 0; i < dir.size();)
-  {
-    std::size_t j = i;
-    while (j < dir.size() && dir[j].first == dir[i].first)
-      ++j;
-    i = j;
-  }
   {
     EdgeIndex index(triangles);
     const auto& pairs = index.pairs();

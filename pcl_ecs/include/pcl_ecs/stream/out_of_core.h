@@ -41,6 +41,9 @@ struct StreamOptions
    * unless keep_scratch. */
   std::string scratch_dir;
   bool keep_scratch = false;
+  /** \brief Largest tile (own points + halo) in points; 0: derived from memory_limit. For tests and
+   * experiments: part of the plan, so it changes the output like the memory limit does. */
+  std::uint64_t max_tile_points = 0;
   /** \brief Progress lines (stage, tiles done, tiles, points per second, seconds left). */
   std::function<void(const std::string& line)> progress;
   /** \brief For tests: kill the process (SIGKILL) after this many tile steps (0: never). */
@@ -75,6 +78,7 @@ struct StreamSummary
   double neighborhood_radius = 0.0;   ///< radius cap unit
   double max_error = 0.0;
   std::uint64_t incomplete_neighbourhoods = 0;  ///< core points whose K neighbours reach past the halo
+  std::uint64_t search_fallback_tiles = 0;  ///< tiles re-read in phase B (a point with only feature neighbours)
   bool halo_too_narrow = false;       ///< 2 × the radius cap did not fit in the halo (warned)
   std::uint64_t tile_point_budget = 0;  ///< largest core + halo planned per tile
   std::uint64_t scratch_bytes = 0;    ///< largest scratch directory size seen
