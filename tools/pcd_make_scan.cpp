@@ -63,14 +63,10 @@ int run(int argc, char** argv)
   double noise = 2e-4, scale = 1.0;
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();
   bool quiet = false;
-  for (int i = 1; i < argc; ++i)
+  for (ArgWalker args(argc, argv); args.next();)
   {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc)
-        throw UsageError(a + " needs a value");
-      return argv[++i];
-    };
+    const std::string& a = args.flag();
+    auto value = [&]() { return args.value(); };
     if (a == "--help" || a == "-h")
     {
       std::cout << kUsage;

@@ -113,14 +113,10 @@ Options parseArgs(int argc, char** argv, bool& done)
   Options o;
   std::vector<std::string> positional;
   done = false;
-  for (int i = 1; i < argc; ++i)
+  for (ArgWalker args(argc, argv); args.next();)
   {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc)
-        throw UsageError(a + " needs a value");
-      return argv[++i];
-    };
+    const std::string& a = args.flag();
+    auto value = [&]() { return args.value(); };
     if (a == "--help" || a == "-h")
     {
       std::cout << kUsage << filterFlagsHelp() << "\n" << kOptions << "\n" << coconeFlagsHelp();

@@ -42,6 +42,35 @@ struct ToolError : std::runtime_error
  * exit code (UsageError 2, ToolError its own, out of memory and anything else 1). */
 int runToolMain(const char* tool, const std::function<int()>& body);
 
+/** \brief Walks the command line: `for (ArgWalker args(argc, argv); args.next();)`, then
+ * `args.flag()` is the current word and `args.value()` takes the next one as its value (UsageError
+ * "FLAG needs a value" at the end of the line). */
+class ArgWalker
+{
+public:
+  ArgWalker(int argc, char** argv) : argc_(argc), argv_(argv) {}
+  bool next()
+  {
+    if (++i_ >= argc_)
+      return false;
+    flag_ = argv_[i_];
+    return true;
+  }
+  const std::string& flag() const { return flag_; }
+  std::string value()
+  {
+    if (i_ + 1 >= argc_)
+      throw UsageError(flag_ + " needs a value");
+    return argv_[++i_];
+  }
+
+private:
+  int argc_;
+  char** argv_;
+  int i_ = 0;
+  std::string flag_;
+};
+
 /** \brief Strict number parsing: the whole text must be the number. Throw UsageError naming
  * the flag. */
 double parseDoubleFlag(const std::string& flag, const std::string& text);

@@ -196,7 +196,10 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
       std::sort(first, last, [&](std::uint32_t x, std::uint32_t y) {
         return sample[x][a] < sample[y][a] || (sample[x][a] == sample[y][a] && x < y);
       });
-      mid = j.begin + count / 2;
+      // Split into the fewest tiles that respect the bound, as evenly as possible: a tile count m
+      // splits m / 2 : m - m / 2 (not always in halves, which would leave tiles at half the bound).
+      const std::size_t m = (count + max_per_tile - 1) / max_per_tile;
+      mid = j.begin + count * (m / 2) / m;
       value = sample[ids[mid]][a];
       // Everything below `value` goes left: move mid to the first sample at value.
       while (mid > j.begin && sample[ids[mid - 1]][a] == value)
@@ -204,7 +207,7 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
       if (mid == j.begin)
       {
         // The lower half is one value: split just above it instead.
-        mid = j.begin + count / 2;
+        mid = j.begin + count * (m / 2) / m;
         while (mid < j.end && sample[ids[mid]][a] == value)
           ++mid;
         if (mid == j.end)
@@ -816,8 +819,12 @@ void Runner::phaseA(int t)
   std::vector<double> weights, measure, curvature;
   computeDensityWeights(table, weights);
   computeFeatureMeasure(*d.cloud, normals, table, tile_threads_, measure);
-  const std::vector<std::uint8_t> none(n, 0);
-  computeMeanCurvature(*d.cloud, normals, table, none, tile_threads_, curvature);
+  // Eq. 7-11 only for the own points: |H| enters through the centre's tolerance (step 5) and the
+  // mean over all points, and centres are own points.
+  std::vector<std::uint8_t> skip(n);
+  for (std::size_t i = 0; i < n; ++i)
+    skip[i] = d.is_core[i] ? 0 : 1;
+  computeMeanCurvature(*d.cloud, normals, table, skip, tile_threads_, curvature);
   std::vector<std::uint8_t> attr(n * kAttrBytes);
   // Sums over this tile's own points (each point counted once in all): Σ measure, count,
   // neighbourhoods that reach past the halo.
