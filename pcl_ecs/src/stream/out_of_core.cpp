@@ -613,13 +613,14 @@ void Runner::scanAndPlan()
         load[static_cast<std::size_t>(t)] += per_sample * static_cast<double>(every);
     }
     const double worst = *std::max_element(load.begin(), load.end());
-    if (worst <= static_cast<double>(plan_.tile_point_budget) || attempt == 12 || max_samples <= 1)
+    if (worst <= static_cast<double>(plan_.tile_point_budget) || attempt == 24 || max_samples <= 1)
     {
       if (worst > static_cast<double>(plan_.tile_point_budget))
         report("warning: the halo is wide for this memory limit; tiles may exceed it");
       break;
     }
-    core_target *= 0.75 * static_cast<double>(plan_.tile_point_budget) / worst;
+    // Shrink just enough (the halo shrinks with the tile less than the core does: small steps).
+    core_target *= std::min(0.97, 0.99 * static_cast<double>(plan_.tile_point_budget) / worst);
   }
   summary_.stage_seconds[0] = secondsSince(t0);
   std::ostringstream os;
