@@ -23,6 +23,7 @@
 #include <fstream>
 #include <iomanip>
 #include <limits>
+#include <map>
 #include <mutex>
 #include <numeric>
 #include <sstream>
@@ -30,6 +31,9 @@
 #include <thread>
 
 #include <unistd.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 
 namespace pcl_ecs
 {
@@ -459,6 +463,9 @@ private:
   }
   void stepDone()
   {
+#ifdef __GLIBC__
+    ::malloc_trim(0);  // hand the finished tile's memory back: peak RSS stays that of two tiles
+#endif
     const std::uint64_t done = ++steps_;
     if (options_.kill_after_steps && done >= options_.kill_after_steps)
       std::raise(SIGKILL);
@@ -484,6 +491,8 @@ private:
   int workers_ = 1;
   int tile_threads_ = 1;
   std::uint64_t memory_limit_ = 0;
+  /// Claim files present when the current colour started: target tile -> writers (ascending).
+  std::map<int, std::vector<int>> claim_writers_;
   // global statistics
   double delta_ = 0.0, mean_spacing_ = 0.0, mean_abs_h_ = 0.0, neighborhood_radius_ = 0.0, cap_ = 0.0;
   Eigen::Vector3d viewpoint_local_ = Eigen::Vector3d::Zero();
@@ -1014,11 +1023,14 @@ void Runner::phaseC(int t)
   {
     std::vector<std::uint8_t> covered(plan_.tree.tiles[static_cast<std::size_t>(s)].core_points, 0);
     bool any = false;
-    for (std::size_t w = 0; w < plan_.tree.tiles.size(); ++w)
+    const auto writers = claim_writers_.find(s);
+    if (writers == claim_writers_.end())
+      continue;
+    for (const int w : writers->second)
     {
-      if (plan_.tree.tiles[w].colour >= colour || !fs::exists(paths_.claims(s, static_cast<int>(w))))
+      if (plan_.tree.tiles[static_cast<std::size_t>(w)].colour >= colour)
         continue;
-      for (const std::uint32_t idx : readVector<std::uint32_t>(paths_.claims(s, static_cast<int>(w))))
+      for (const std::uint32_t idx : readVector<std::uint32_t>(paths_.claims(s, w)))
         if (idx < covered.size())
         {
           covered[idx] = 1;
@@ -1209,6 +1221,17 @@ StreamSummary Runner::run()
     if (ec)
       failRun("cannot create the scratch directory " + paths_.root.string() + ": " + ec.message());
     std::ofstream(paths_.root / kScratchMarker) << "scratch space of pcd_simplify --stream; safe to delete\n";
+    // Refuse up front when the scratch space cannot hold the run (~140 B a point + the records).
+    const std::uint64_t need = header_.points * (140ull + (13ull * header_.point_step) / 10);
+    const auto space = fs::space(paths_.root, ec);
+    if (!ec && space.available < need)
+    {
+      fs::remove_all(paths_.root, ec);
+      std::ostringstream os;
+      os << "the scratch directory " << paths_.root.string() << " has " << (space.available >> 20)
+         << " MiB free but this run needs about " << (need >> 20) << " MiB: choose another with --scratch";
+      failRun(os.str());
+    }
     plan_.fingerprint = fingerprint;
     try
     {
@@ -1283,12 +1306,25 @@ StreamSummary Runner::run()
   const int colours = colourTiles(plan_.tree.tiles, 2.0 * cap_ * 1.001 + 1e-12);
   track_scratch();
 
+  fs::create_directories(paths_.root / "c");
   for (int c = 0; c < colours; ++c)
   {
     std::vector<int> todo;
     for (int t = 0; t < tiles; ++t)
       if (plan_.tree.tiles[static_cast<std::size_t>(t)].colour == c && !fs::exists(paths_.doneC(t)))
         todo.push_back(t);
+    // The claims written so far, listed once for the colour (phaseC keeps those of earlier colours).
+    claim_writers_.clear();
+    for (const auto& e : fs::directory_iterator(paths_.root / "c", ec))
+    {
+      const std::string name = e.path().filename().string();
+      const std::size_t dot = name.find(".from.");
+      if (dot == std::string::npos || name.find(".tmp") != std::string::npos)
+        continue;
+      claim_writers_[std::stoi(name.substr(0, dot))].push_back(std::stoi(name.substr(dot + 6)));
+    }
+    for (auto& kv : claim_writers_)
+      std::sort(kv.second.begin(), kv.second.end());
     const std::string name = "C (cover, colour " + std::to_string(c + 1) + "/" + std::to_string(colours) + ")";
     runStage(name.c_str(), 4, todo, [&](int t) { phaseC(t); });
   }
