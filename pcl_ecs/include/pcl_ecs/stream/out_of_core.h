@@ -1,7 +1,7 @@
 // out_of_core.h — the paper's method on PCD scans larger than memory (docs/STREAMING.md).
 //
 //  scan   stream the input once: count, bounds and a deterministic ~1M-point sample;
-//  plan   split the sample's 2D footprint (the two longest axes) into tiles of equal point
+//  plan   split the sample's 2D footprint (the two longest axes) into tiles of even point
 //         counts, sized so that a tile with its halo fits the memory budget; estimate the halo
 //         width (neighbourhoods + the largest ball) from the sample;
 //  split  stream the input again: every point to its tile's core file, and to the halo file of
@@ -100,8 +100,9 @@ bool parseByteSize(const std::string& text, std::uint64_t& bytes);
 /** \brief Physical memory of this machine in bytes (0 when unknown). */
 std::uint64_t physicalMemory();
 
-/** \brief Split the 2D sample points into tiles of at most `max_per_tile` samples each by
- * recursive median splits of the longer side (deterministic; ties by position in the list).
+/** \brief Split the 2D sample points into the fewest tiles of at most `max_per_tile` samples each,
+ * as even as possible, by recursive splits of the longer side (a part that needs m tiles is split
+ * m/2 : m - m/2; deterministic; ties by position in the list).
  * The outer tiles reach to infinity. */
 std::vector<Tile> planTiles(const std::vector<std::array<double, 2>>& sample, std::size_t max_per_tile);
 
