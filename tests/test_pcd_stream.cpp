@@ -1,5 +1,7 @@
 // The streaming PCD reader and writer: every encoding read chunk by chunk gives exactly what PCL's
 // own reader gives; the writer's files are read back by PCL; bad files are refused with a message.
+#include "cli/cli_fixture.h"
+
 #include <pcl_ecs/io/pcd_stream.h>
 
 #include <cstdlib>
@@ -18,18 +20,9 @@ using namespace pcl_ecs::io;
 
 namespace
 {
-class PcdStream : public ::testing::Test
+class PcdStream : public pcl_ecs_test::TempDirTest
 {
 protected:
-  void SetUp() override
-  {
-    char tmpl[] = "/tmp/pcd_stream_test_XXXXXX";
-    ASSERT_NE(::mkdtemp(tmpl), nullptr);
-    dir_ = tmpl;
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string path(const std::string& n) const { return (fs::path(dir_) / n).string(); }
-
   /// A cloud with several field types; smooth coordinates so LZF finds back references.
   static pcl::PointCloud<pcl::PointXYZRGBNormal> makeCloud(std::size_t n)
   {
@@ -66,8 +59,6 @@ protected:
     EXPECT_EQ(r.remaining(), 0u);
     return all;
   }
-
-  std::string dir_;
 };
 
 /// Compares the streamed records with PCL's reading of the same file, field by field.
