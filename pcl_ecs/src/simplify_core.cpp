@@ -153,13 +153,8 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
 
   t = Clock::now();
   report("density", 0.0);
-  auto nonfeature_indices = std::make_shared<pcl::Indices>();
-  nonfeature_indices->reserve(cloud.size() - s.feature_points);
-  for (std::size_t i = 0; i < cloud.size(); ++i)
-    if (!out.is_feature[i])
-      nonfeature_indices->push_back(static_cast<int>(i));
   NanoflannSearch nonfeature_tree;
-  nonfeature_tree.setInputCloud(cloud_ptr, nonfeature_indices);
+  nonfeature_tree.setInputCloudWhere(cloud_ptr, out.is_feature);
   computeLocalDensity(cloud, table, out.is_feature, nonfeature_tree, threads, out.density);
   s.mean_spacing = meanOverNonFeatures(out.density, out.is_feature);
   {

@@ -811,6 +811,17 @@ struct AttrView
     std::memcpy(&v, bytes.data() + i * kAttrBytes + 12 + 8 * which, 8);
     return v;
   }
+  std::size_t size() const { return bytes.size() / kAttrBytes; }
+  /// Eq. 4 with the global δ: the measure above δ.
+  std::vector<std::uint8_t> features(double delta) const
+  {
+    std::vector<double> measure(size());
+    for (std::size_t i = 0; i < measure.size(); ++i)
+      measure[i] = value(i, 1);
+    std::vector<std::uint8_t> is_feature;
+    classifyFeatures(measure, delta, is_feature);
+    return is_feature;
+  }
 };
 
 void Runner::phaseA(int t)
@@ -898,7 +909,7 @@ void Runner::phaseB(int t)
 {
   const auto attr_bytes = readVector<std::uint8_t>(paths_.attr(t));
   const AttrView attr{attr_bytes};
-  const std::size_t n = attr_bytes.size() / kAttrBytes;
+  const std::size_t n = attr.size();
   std::vector<double> density(n, 0.0);
   // Σ dens, Σ sqrt(a), Σ |H|, non-feature count, feature count (own points), 1 if the tile was
   // loaded for a search
@@ -951,21 +962,13 @@ void Runner::phaseB(int t)
     }
   }
   TileData d = loadTile(t);
-  std::vector<double> measure(n);
-  for (std::size_t i = 0; i < n; ++i)
-    measure[i] = attr.value(i, 1);
-  std::vector<std::uint8_t> is_feature;
-  classifyFeatures(measure, delta_, is_feature);
+  const std::vector<std::uint8_t> is_feature = attr.features(delta_);
   NanoflannSearch tree;
   tree.setInputCloud(d.cloud);
   NeighborhoodTable table;
   computeNeighborhoods(*d.cloud, tree, params_.k_neighbors, tile_threads_, table);
-  auto nonfeature = std::make_shared<pcl::Indices>();
-  for (std::size_t i = 0; i < n; ++i)
-    if (!is_feature[i])
-      nonfeature->push_back(static_cast<int>(i));
   NanoflannSearch nonfeature_tree;
-  nonfeature_tree.setInputCloud(d.cloud, nonfeature);
+  nonfeature_tree.setInputCloudWhere(d.cloud, is_feature);
   computeLocalDensity(*d.cloud, table, is_feature, nonfeature_tree, tile_threads_, density);
   std::fill(sums.begin(), sums.end(), 0.0);
   sums[5] = 1.0;
@@ -997,16 +1000,14 @@ void Runner::phaseC(int t)
   const AttrView attr{attr_bytes};
   const auto density = readVector<double>(paths_.dens(t));
   NormalList normals(n);
-  std::vector<double> weights(n), measure(n), curvature(n);
+  std::vector<double> weights(n), curvature(n);
   for (std::size_t i = 0; i < n; ++i)
   {
     normals[i] = attr.normal(i);
     weights[i] = attr.value(i, 0);
-    measure[i] = attr.value(i, 1);
     curvature[i] = attr.value(i, 2);
   }
-  std::vector<std::uint8_t> is_feature;
-  classifyFeatures(measure, delta_, is_feature);
+  const std::vector<std::uint8_t> is_feature = attr.features(delta_);
   for (std::size_t i = 0; i < n; ++i)
     if (is_feature[i])
       curvature[i] = 0.0;  // as computeMeanCurvature gives feature points
@@ -1044,12 +1045,8 @@ void Runner::phaseC(int t)
         pre_covered[i] = 1;
   }
 
-  auto nonfeature = std::make_shared<pcl::Indices>();
-  for (std::size_t i = 0; i < n; ++i)
-    if (!is_feature[i])
-      nonfeature->push_back(static_cast<int>(i));
   NanoflannSearch nonfeature_tree;
-  nonfeature_tree.setInputCloud(d.cloud, nonfeature);
+  nonfeature_tree.setInputCloudWhere(d.cloud, is_feature);
   CoverInput in{*d.cloud,          normals,      weights,     is_feature, curvature, density, mean_abs_h_,
                 mean_spacing_,     neighborhood_radius_, summary_.bbox_diagonal, nonfeature_tree};
   in.centre_allowed = &d.is_core;
@@ -1151,12 +1148,12 @@ void Runner::writeOutput()
 {
   const auto t0 = Clock::now();
   io::PcdStreamWriter writer(output_, header_.fields, header_.point_step, header_.viewpoint);
+  std::vector<std::uint8_t> buf(static_cast<std::size_t>(header_.point_step) * kChunk);
   for (std::size_t t = 0; t < plan_.tree.tiles.size(); ++t)
   {
     std::ifstream f(paths_.out(static_cast<int>(t)), std::ios::binary);
     if (!f)
       failRun("cannot read the scratch file " + paths_.out(static_cast<int>(t)).string());
-    std::vector<std::uint8_t> buf(static_cast<std::size_t>(header_.point_step) * kChunk);
     for (;;)
     {
       f.read(reinterpret_cast<char*>(buf.data()), static_cast<std::streamsize>(buf.size()));

@@ -3,6 +3,9 @@
 // small K-nearest and radius queries of the method. Distances are SQUARED, as everywhere in PCL.
 #pragma once
 
+#include <cstdint>
+#include <vector>
+
 #include <memory>
 
 #include <pcl/point_types.h>
@@ -34,6 +37,10 @@ public:
 
   using pcl::search::Search<pcl::PointXYZ>::nearestKSearch;
   using pcl::search::Search<pcl::PointXYZ>::radiusSearch;
+
+  /** \brief Build over the points of `cloud` whose `skip` entry is 0 (e.g. the non-feature
+   * points, with skip = is_feature); results index `cloud`. */
+  void setInputCloudWhere(const PointCloudConstPtr& cloud, const std::vector<std::uint8_t>& skip);
 
 private:
   struct Impl;
