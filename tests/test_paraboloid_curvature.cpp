@@ -1,4 +1,7 @@
 #include <pcl_ecs/stages/paraboloid_curvature.h>
+#include <pcl_ecs/stages/tangent_frame.h>
+
+#include <Eigen/Dense>
 
 #include "synthetic_shapes.h"
 #include "test_support.h"
@@ -71,4 +74,56 @@ TEST(ParaboloidCurvature, FeaturePointsAreSkipped)
   pcl_ecs::computeMeanCurvature(*cloud, makeNormals(cloud, table), table, feature, 1, H);
   EXPECT_EQ(H[7], 0.0);
   EXPECT_GT(std::abs(H[8]), 0.9);
+}
+
+// Noisy neighbourhoods (no exact fit): the least-squares solution equals Eigen's reference solver
+// on the same design matrix, for both fits.
+TEST(ParaboloidCurvature, LeastSquaresMatchesAReferenceSolver)
+{
+  Rng rng(5);
+  for (int trial = 0; trial < 200; ++trial)
+  {
+    const Eigen::Vector3d normal =
+        Eigen::Vector3d(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(0.2, 1)).normalized();
+    const Eigen::Vector3d centre(rng.uniform(-5, 5), rng.uniform(-5, 5), rng.uniform(-5, 5));
+    Eigen::Vector3d u, v;
+    pcl_ecs::tangentFrame(normal, u, v);
+    std::vector<Eigen::Vector3d> pts;
+    const int count = 8 + trial % 40;
+    for (int i = 0; i < count; ++i)
+    {
+      const double x = rng.uniform(-0.3, 0.3), y = rng.uniform(-0.3, 0.3);
+      pts.push_back(centre + x * u + y * v +
+                    (0.4 * x * x - 0.2 * x * y + 1.1 * y * y + 0.05 * x + rng.uniform(-0.01, 0.01)) * normal);
+    }
+    for (const auto fit : {pcl_ecs::ParaboloidFit::Literal, pcl_ecs::ParaboloidFit::Tilted})
+    {
+      const int cols = fit == pcl_ecs::ParaboloidFit::Literal ? 3 : 5;
+      double scale = 0.0;
+      for (const auto& p : pts)
+        scale = std::max(scale, (p - centre).norm());
+      Eigen::MatrixXd A(count, cols);
+      Eigen::VectorXd z(count);
+      for (int i = 0; i < count; ++i)
+      {
+        const Eigen::Vector3d q = (pts[static_cast<std::size_t>(i)] - centre) / scale;
+        const double x = q.dot(u), y = q.dot(v);
+        Eigen::RowVectorXd row(5);
+        row << x * x, x * y, y * y, x, y;
+        A.row(i) = row.head(cols);
+        z(i) = q.dot(normal);
+      }
+      const Eigen::VectorXd c = A.colPivHouseholderQr().solve(z);
+      double expected = (c(0) + c(2)) / scale;
+      if (cols == 5)
+      {
+        const double g = 1.0 + c(3) * c(3) + c(4) * c(4);
+        expected = ((1.0 + c(4) * c(4)) * c(0) - c(3) * c(4) * c(1) + (1.0 + c(3) * c(3)) * c(2)) /
+                   (std::pow(g, 1.5) * scale);
+      }
+      EXPECT_NEAR(pcl_ecs::paraboloidMeanCurvature(centre, normal, pts, fit), expected,
+                  1e-9 * std::max(1.0, std::abs(expected)))
+          << "trial " << trial << " cols " << cols;
+    }
+  }
 }

@@ -2,12 +2,71 @@
 #include <pcl_ecs/stages/tangent_frame.h>
 
 #include <cmath>
+#include <algorithm>
 #include <cstddef>
+#include <limits>
 
 #include <Eigen/Dense>
 
 namespace pcl_ecs
 {
+
+namespace
+{
+/// Least squares min |A x - z| by Householder QR (eq. 9), on at most 5 columns stored column
+/// by column. Small and allocation-free: the fit runs once per point. Returns false when a
+/// column's R diagonal is negligible against the largest (the rows do not determine x).
+bool householderLeastSquares(double (*a)[256], double* z, int rows, int cols, double* x)
+{
+  double diag[5];
+  for (int j = 0; j < cols; ++j)
+  {
+    double* col = a[j];
+    double norm2 = 0.0;
+    for (int i = j; i < rows; ++i)
+      norm2 += col[i] * col[i];
+    const double norm = std::sqrt(norm2);
+    if (!(norm > 0.0))
+    {
+      diag[j] = 0.0;
+      continue;
+    }
+    const double alpha = col[j] > 0.0 ? -norm : norm;  // reflect away from the column
+    // v = col[j..] - alpha e_j, stored in place; |v|² = 2 norm (norm + |col[j]|).
+    const double vnorm2 = 2.0 * norm * (norm + std::abs(col[j]));
+    col[j] -= alpha;
+    auto reflect = [&](double* y) {
+      double s = 0.0;
+      for (int i = j; i < rows; ++i)
+        s += col[i] * y[i];
+      s *= 2.0 / vnorm2;
+      for (int i = j; i < rows; ++i)
+        y[i] -= s * col[i];
+    };
+    for (int c = j + 1; c < cols; ++c)
+      reflect(a[c]);
+    reflect(z);
+    diag[j] = alpha;
+  }
+  double largest = 0.0, smallest = std::numeric_limits<double>::infinity();
+  for (int j = 0; j < cols; ++j)
+  {
+    largest = std::max(largest, std::abs(diag[j]));
+    smallest = std::min(smallest, std::abs(diag[j]));
+  }
+  if (!(smallest > 1e-9 * largest))
+    return false;
+  // R x = (Q^T z)[0..cols): R's strict upper part sits in a[c][j] for c > j.
+  for (int j = cols - 1; j >= 0; --j)
+  {
+    double s = z[j];
+    for (int c = j + 1; c < cols; ++c)
+      s -= a[c][j] * x[c];
+    x[j] = s / diag[j];
+  }
+  return true;
+}
+}  // namespace
 
 double paraboloidMeanCurvature(const Eigen::Vector3d& centre, const Eigen::Vector3d& normal,
                                const std::vector<Eigen::Vector3d>& points, ParaboloidFit fit)
@@ -15,52 +74,45 @@ double paraboloidMeanCurvature(const Eigen::Vector3d& centre, const Eigen::Vecto
   Eigen::Vector3d u, v;
   tangentFrame(normal, u, v);
   const int cols = fit == ParaboloidFit::Literal ? 3 : 5;
-  // Fixed maximum sizes keep the per-point fit off the heap (K <= 200, so at most 201 rows).
-  using Rows = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 256, 5>;
-  using Col = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 256, 1>;
-  if (points.size() > 256)
-    return paraboloidMeanCurvature(centre, normal,
-                                   std::vector<Eigen::Vector3d>(points.begin(), points.begin() + 256), fit);
-  Rows A(static_cast<Eigen::Index>(points.size()), cols);  // eq. 8 (+ x, y for the tilted fit)
-  Col z(static_cast<Eigen::Index>(points.size()));         // eq. 10
-  Eigen::Index rows = 0;
+  constexpr std::size_t kMaxRows = 256;  // K <= 200 in the method: the fit stays on the stack
+  const std::size_t count = std::min(points.size(), kMaxRows);
   double scale = 0.0;
-  for (const auto& p : points)
-    scale = std::max(scale, std::sqrt((p - centre).squaredNorm()));
+  for (std::size_t i = 0; i < count; ++i)
+    scale = std::max(scale, (points[i] - centre).squaredNorm());
+  scale = std::sqrt(scale);
   if (!(scale > 0.0))
     return 0.0;
-  for (const auto& p : points)
+  double a[5][kMaxRows];  // eq. 8 (+ x, y for the tilted fit), column by column
+  double z[kMaxRows];     // eq. 10
+  int rows = 0;
+  for (std::size_t i = 0; i < count; ++i)
   {
     // Coordinates scaled by the neighbourhood size so the rank decision of the QR is scale-free.
-    const Eigen::Vector3d q = (p - centre) / scale;
+    const Eigen::Vector3d q = (points[i] - centre) / scale;
     const double x = q.dot(u), y = q.dot(v);
     if (x * x + y * y <= 0.0)
       continue;  // the centre (or a duplicate) adds nothing to a fit through the origin
-    if (cols == 3)
-      A.row(rows) << x * x, x * y, y * y;
-    else
-      A.row(rows) << x * x, x * y, y * y, x, y;
-    z(rows) = q.dot(normal);
+    a[0][rows] = x * x;
+    a[1][rows] = x * y;
+    a[2][rows] = y * y;
+    a[3][rows] = x;
+    a[4][rows] = y;
+    z[rows] = q.dot(normal);
     ++rows;
   }
   if (rows < cols)
     return 0.0;
-  // Householder QR (eq. 9 "solved by Householder transformation"); a column whose R diagonal is
-  // negligible means the neighbours do not determine the paraboloid.
-  const Rows Ar = A.topRows(rows);
-  Eigen::HouseholderQR<Rows> qr(Ar);
-  const auto diag = qr.matrixQR().diagonal().cwiseAbs();
-  if (!(diag.minCoeff() > 1e-9 * diag.maxCoeff()))
+  double coef[5];
+  if (!householderLeastSquares(a, z, rows, cols, coef))  // eq. 9
     return 0.0;
-  const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 5, 1> coef = qr.solve(Col(z.head(rows)));  // eq. 9
-  const double a = coef(0), b = coef(1), c = coef(2);
+  const double ca = coef[0], cb = coef[1], cc = coef[2];
   if (cols == 3)
-    return (a + c) / scale;  // eq. 11
+    return (ca + cc) / scale;  // eq. 11
   // Mean curvature of the graph z = f(x, y) at the origin, with the fitted slope (d, e) of a
   // normal that is slightly off; equals a + c when d = e = 0.
-  const double d = coef(3), e = coef(4);
+  const double d = coef[3], e = coef[4];
   const double g = 1.0 + d * d + e * e;
-  return ((1.0 + e * e) * a - d * e * b + (1.0 + d * d) * c) / (std::pow(g, 1.5) * scale);
+  return ((1.0 + e * e) * ca - d * e * cb + (1.0 + d * d) * cc) / (g * std::sqrt(g) * scale);
 }
 
 void computeMeanCurvature(const LocalCloud& cloud, const NormalList& normals,
