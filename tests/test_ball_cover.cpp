@@ -16,12 +16,13 @@ namespace
 {
 struct CoverRun
 {
-  CoverRun(const Cloud::Ptr& cloud, const pcl_ecs::Parameters& params, double terr)
+  CoverRun(const Cloud::Ptr& cloud, const pcl_ecs::Parameters& params, double terr,
+           std::vector<std::uint8_t> is_feature = {})
   {
     const auto table = makeTable(cloud, params.k_neighbors);
     normals = makeNormals(cloud, table);
     pcl_ecs::computeDensityWeights(table, weights);
-    feature.assign(cloud->size(), 0);
+    feature = is_feature.empty() ? std::vector<std::uint8_t>(cloud->size(), 0) : std::move(is_feature);
     tree.setInputCloud(cloud);
     pcl_ecs::computeLocalDensity(*cloud, table, feature, tree, 2, density);
     pcl_ecs::computeMeanCurvature(*cloud, normals, table, feature, 2, curvature);
@@ -56,6 +57,32 @@ TEST(BallCover, EveryPointIsOwnedAndCountsAddUp)
   for (int o : run.out.owner)
     EXPECT_GE(o, 0);
   EXPECT_LT(run.out.balls.size(), cloud->size() / 3);  // it does simplify
+}
+
+// Feature points (here a band across the sphere) are left alone: never a centre, never claimed,
+// never a ball's attribute source; the other points are all covered.
+TEST(BallCover, FeaturePointsAreNeitherCentresNorMembers)
+{
+  auto cloud = fibonacciSphere(5000, 1.0);
+  std::vector<std::uint8_t> feature(cloud->size(), 0);
+  std::size_t features = 0;
+  for (std::size_t i = 0; i < cloud->size(); ++i)
+    if (std::abs((*cloud)[i].z) < 0.05 || i % 17 == 0)
+    {
+      feature[i] = 1;
+      ++features;
+    }
+  CoverRun run(cloud, pcl_ecs::Parameters{}, 1e-3, feature);
+  std::size_t replaced = 0;
+  for (const auto& b : run.out.balls)
+  {
+    replaced += b.replaced;
+    EXPECT_FALSE(feature[static_cast<std::size_t>(b.centre)]);
+    EXPECT_FALSE(feature[static_cast<std::size_t>(b.attribute_source)]);
+  }
+  EXPECT_EQ(replaced, cloud->size() - features);
+  for (std::size_t i = 0; i < cloud->size(); ++i)
+    EXPECT_EQ(run.out.owner[i] < 0, feature[i] != 0) << i;
 }
 
 TEST(BallCover, PlaneRepresentativesLieOnThePlane)

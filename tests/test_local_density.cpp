@@ -11,14 +11,10 @@ namespace
 {
 std::vector<double> density(const Cloud::Ptr& cloud, const std::vector<std::uint8_t>& feature, int k)
 {
-  auto idx = std::make_shared<pcl::Indices>();
-  for (std::size_t i = 0; i < cloud->size(); ++i)
-    if (!feature[i])
-      idx->push_back(static_cast<int>(i));
-  pcl::search::KdTree<pcl::PointXYZ> nf;
-  nf.setInputCloud(cloud, idx);
+  pcl::search::KdTree<pcl::PointXYZ> tree;
+  tree.setInputCloud(cloud);
   std::vector<double> d;
-  pcl_ecs::computeLocalDensity(*cloud, makeTable(cloud, k), feature, nf, 2, d);
+  pcl_ecs::computeLocalDensity(*cloud, makeTable(cloud, k), feature, tree, 2, d);
   return d;
 }
 }  // namespace

@@ -1,4 +1,5 @@
 #include <pcl_ecs/neighborhood.h>
+#include <pcl_ecs/search/nanoflann_search.h>
 
 #include "synthetic_shapes.h"
 
@@ -56,4 +57,57 @@ TEST(Neighborhood, SameResultWithOneOrTwoThreads)
   pcl_ecs::computeNeighborhoods(*cloud, tree, 16, 2, b);
   EXPECT_EQ(a.indices, b.indices);
   EXPECT_EQ(a.sqr_distances, b.sqr_distances);
+}
+
+// A cloud that stresses the blocked search: a dense patch, exact duplicates, an integer grid (many
+// equal distances), far outliers, in shuffled order. The table must equal brute force exactly:
+// the k smallest (distance, index) pairs, whatever the back end and the thread count.
+TEST(Neighborhood, ExactOnTiesDuplicatesAndOutliers)
+{
+  Rng rng(17);
+  auto cloud = std::make_shared<Cloud>();
+  for (int i = 0; i < 2500; ++i)
+    cloud->push_back(toPoint({rng.uniform(0, 1), rng.uniform(0, 1), 0.01 * rng.uniform()}));
+  for (int i = 0; i < 300; ++i)
+    cloud->push_back((*cloud)[static_cast<std::size_t>(i * 7)]);
+  for (int x = 0; x < 12; ++x)
+    for (int y = 0; y < 12; ++y)
+      cloud->push_back(toPoint({3.0 + 0.05 * x, 0.05 * y, 0.0}));
+  for (int i = 0; i < 150; ++i)
+    cloud->push_back(toPoint({rng.uniform(-50, 50), rng.uniform(-50, 50), rng.uniform(-50, 50)}));
+  for (std::size_t i = cloud->size() - 1; i > 0; --i)
+    std::swap((*cloud)[i], (*cloud)[static_cast<std::size_t>(rng.uniform(0, 1) * static_cast<double>(i + 1)) % (i + 1)]);
+  const int k = 16;
+  std::vector<std::vector<std::pair<float, int>>> expected(cloud->size());
+  for (std::size_t i = 0; i < cloud->size(); ++i)
+  {
+    for (std::size_t j = 0; j < cloud->size(); ++j)
+      if (j != i)
+      {
+        const pcl::PointXYZ &a = (*cloud)[i], &b = (*cloud)[j];
+        const float dx = a.x - b.x, dy = a.y - b.y, dz = a.z - b.z;
+        expected[i].emplace_back(dx * dx + dy * dy + dz * dz, static_cast<int>(j));
+      }
+    std::partial_sort(expected[i].begin(), expected[i].begin() + k, expected[i].end());
+  }
+  pcl_ecs::NanoflannSearch nano;
+  nano.setInputCloud(cloud);
+  pcl::search::KdTree<pcl::PointXYZ> flann;
+  flann.setInputCloud(cloud);
+  for (const pcl::search::Search<pcl::PointXYZ>* search :
+       {static_cast<const pcl::search::Search<pcl::PointXYZ>*>(&nano),
+        static_cast<const pcl::search::Search<pcl::PointXYZ>*>(&flann)})
+    for (int threads : {1, 2})
+    {
+      pcl_ecs::NeighborhoodTable table;
+      ASSERT_EQ(pcl_ecs::computeNeighborhoods(*cloud, *search, k, threads, table), pcl_ecs::Status::Ok);
+      std::size_t wrong = 0;
+      for (std::size_t i = 0; i < cloud->size(); ++i)
+        for (int j = 0; j < k; ++j)
+          if (table.neighbors(i)[j] != expected[i][static_cast<std::size_t>(j)].second ||
+              std::abs(table.sqrDistances(i)[j] - expected[i][static_cast<std::size_t>(j)].first) >
+                  1e-6f * std::max(1.f, expected[i][static_cast<std::size_t>(j)].first))
+            ++wrong;
+      EXPECT_EQ(wrong, 0u) << search->getName() << ", " << threads << " threads";
+    }
 }

@@ -1,10 +1,227 @@
 #include <pcl_ecs/neighborhood.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <utility>
 
 namespace pcl_ecs
 {
+
+namespace
+{
+using Pair = std::pair<float, int>;  // squared distance, index: ordered by distance, then index
+
+/// Squared distance in float, summed x, y, z in that order (as the search back ends do).
+inline float sqrDistance(const pcl::PointXYZ& a, const pcl::PointXYZ& b)
+{
+  const float dx = a.x - b.x, dy = a.y - b.y, dz = a.z - b.z;
+  return dx * dx + dy * dy + dz * dz;
+}
+
+/// Write the k first pairs of `row` (sorted) as row i of the table, repeating the last when short.
+void storeRow(std::vector<Pair>& row, int k, std::ptrdiff_t i, NeighborhoodTable& table)
+{
+  row.resize(std::min<std::size_t>(row.size(), static_cast<std::size_t>(k)));
+  // A back end may return fewer than k + 1 (it should not with n > k); repeat the last.
+  while (row.size() < static_cast<std::size_t>(k))
+    row.push_back(row.empty() ? std::make_pair(0.f, static_cast<int>(i)) : row.back());
+  int* out_i = table.indices.data() + i * k;
+  float* out_d = table.sqr_distances.data() + i * k;
+  for (int j = 0; j < k; ++j)
+  {
+    out_i[j] = row[static_cast<std::size_t>(j)].second;
+    out_d[j] = row[static_cast<std::size_t>(j)].first;
+  }
+}
+
+/// (squared distance, index) as one integer that orders like the pair (distance >= 0, index >= 0).
+inline std::uint64_t pairKey(float d2, int index)
+{
+  std::uint32_t bits;
+  std::memcpy(&bits, &d2, sizeof bits);
+  return (static_cast<std::uint64_t>(bits) << 32) | static_cast<std::uint32_t>(index);
+}
+
+inline float keyDistance(std::uint64_t key)
+{
+  const auto bits = static_cast<std::uint32_t>(key >> 32);
+  float d2;
+  std::memcpy(&d2, &bits, sizeof d2);
+  return d2;
+}
+
+/// Work space of one thread.
+struct Worker
+{
+  pcl::Indices found;
+  std::vector<float> d2;
+  std::vector<Pair> row;
+  std::vector<float> cx, cy, cz;  // candidates of a block, by coordinate
+  std::vector<int> cid;
+  std::vector<std::uint64_t> keys;
+  std::vector<float> kth;  // K-th distances of the current block
+  float margin = 0.f;  // recent K-th neighbour distance: how far around a block to look
+};
+
+/// The K nearest of point i (returned: the K-th distance) by one query of `search` per attempt. k + 1 because the point finds
+/// itself (or a duplicate of itself) first, + 1 to see past the k-th distance: when points tie at
+/// that distance, which of them a back end returns depends on its tree, so ask for more until
+/// every tied point is in (then the smallest indices win, whatever the tree: a tile of the
+/// out-of-core path and the whole cloud agree).
+float nearestOfOne(const LocalCloud& cloud, const pcl::search::Search<pcl::PointXYZ>& search, int k,
+                   std::ptrdiff_t i, Worker& w, NeighborhoodTable& table)
+{
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(cloud.size());
+  int ask = k + 2;
+  for (;;)
+  {
+    search.nearestKSearch(cloud[i], std::min<int>(ask, static_cast<int>(n)), w.found, w.d2);
+    w.row.clear();
+    bool self_seen = false;
+    for (std::size_t j = 0; j < w.found.size(); ++j)
+    {
+      if (!self_seen && w.found[j] == i)
+      {
+        self_seen = true;
+        continue;
+      }
+      w.row.emplace_back(w.d2[j], w.found[j]);
+    }
+    std::sort(w.row.begin(), w.row.end());  // distance, then index: independent of the back end
+    const bool complete = static_cast<std::ptrdiff_t>(w.found.size()) < ask || ask >= n ||
+                          w.row.size() <= static_cast<std::size_t>(k) ||
+                          w.row.back().first > w.row[static_cast<std::size_t>(k) - 1].first;
+    if ((complete && self_seen) || ask >= n)
+      break;
+    ask = static_cast<int>(std::min<std::ptrdiff_t>(n, 2 * static_cast<std::ptrdiff_t>(ask)));
+  }
+  const float kth = w.row.empty() ? 0.f : std::sqrt(w.row[std::min<std::size_t>(w.row.size(), k) - 1].first);
+  storeRow(w.row, k, i, table);
+  return kth;
+}
+
+/// The margin for the next block: the K-th distance that three quarters of this block's points
+/// do not exceed (an isolated outlier does not inflate it; points beyond are answered alone).
+void learnMargin(Worker& w)
+{
+  if (w.kth.empty())
+    return;
+  const auto q = w.kth.begin() + static_cast<std::ptrdiff_t>((3 * (w.kth.size() - 1)) / 4);
+  std::nth_element(w.kth.begin(), q, w.kth.end());
+  if (*q > 0.f)
+    w.margin = *q;
+}
+
+constexpr std::ptrdiff_t kBlock = 32;          // consecutive points answered together
+constexpr std::size_t kMaxCandidates = 4096;   // beyond this a block is split
+
+/// The K nearest of the points [first, last) together: one radius query of `search` around the
+/// block gathers every point that can be among their neighbours, then each point picks its K
+/// nearest from those by brute force. A point whose K-th distance does not stay inside the
+/// gathered ball (by a safety margin) is answered on its own, so the table is exact whatever the
+/// blocks, the margin or the thread (the same pairs, ordered by distance then index).
+void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::PointXYZ>& search, int k,
+                    std::ptrdiff_t first, std::ptrdiff_t last, Worker& w, NeighborhoodTable& table)
+{
+  if (w.margin <= 0.f)
+  {
+    w.margin = nearestOfOne(cloud, search, k, first, w, table);  // learn a first margin
+    if (++first == last)
+      return;
+  }
+  Eigen::Vector3f lo = cloud[first].getVector3fMap(), hi = lo;
+  for (std::ptrdiff_t i = first + 1; i < last; ++i)
+  {
+    lo = lo.cwiseMin(cloud[i].getVector3fMap());
+    hi = hi.cwiseMax(cloud[i].getVector3fMap());
+  }
+  const Eigen::Vector3d centre = 0.5 * (lo + hi).cast<double>();
+  const double half_diagonal = 0.5 * (hi - lo).cast<double>().norm();
+  const std::ptrdiff_t count = last - first;
+  if (count > 1 && half_diagonal > 2.0 * w.margin)
+  {
+    // A spread-out run (the Morton order jumps): halves gather fewer useless candidates.
+    const std::ptrdiff_t mid = first + count / 2;
+    nearestOfBlock(cloud, search, k, first, mid, w, table);
+    nearestOfBlock(cloud, search, k, mid, last, w, table);
+    return;
+  }
+  const double radius = half_diagonal + 1.2 * static_cast<double>(w.margin);
+  pcl::PointXYZ c;
+  c.x = static_cast<float>(centre.x());
+  c.y = static_cast<float>(centre.y());
+  c.z = static_cast<float>(centre.z());
+  search.radiusSearch(c, radius, w.found, w.d2);
+  const std::size_t m = w.found.size();
+  w.kth.clear();
+  if (m > kMaxCandidates)
+  {
+    // Far too many candidates (an outlier made the margin large, or the points pile up): answer
+    // these points one by one.
+    for (std::ptrdiff_t i = first; i < last; ++i)
+      w.kth.push_back(nearestOfOne(cloud, search, k, i, w, table));
+    learnMargin(w);
+    return;
+  }
+  w.cx.resize(m);
+  w.cy.resize(m);
+  w.cz.resize(m);
+  w.cid.resize(m);
+  for (std::size_t j = 0; j < m; ++j)
+  {
+    const pcl::PointXYZ& p = cloud[w.found[j]];
+    w.cx[j] = p.x;
+    w.cy[j] = p.y;
+    w.cz[j] = p.z;
+    w.cid[j] = w.found[j];
+  }
+  const std::size_t ku = static_cast<std::size_t>(k);
+  w.keys.resize(ku);
+  for (std::ptrdiff_t i = first; i < last; ++i)
+  {
+    const pcl::PointXYZ& q = cloud[i];
+    // Anything not gathered lies farther than `reach` from q.
+    const double reach = (radius - (q.getVector3fMap().cast<double>() - centre).norm()) * (1.0 - 1e-4);
+    // The k smallest (distance, index) pairs, as integer keys whose order is that of the pairs
+    // (the bits of a non-negative float order like the float), kept sorted by insertion.
+    std::uint64_t* keys = w.keys.data();
+    std::size_t filled = 0;
+    for (std::size_t j = 0; j < m; ++j)
+    {
+      const float dx = q.x - w.cx[j], dy = q.y - w.cy[j], dz = q.z - w.cz[j];
+      const std::uint64_t key = pairKey(dx * dx + dy * dy + dz * dz, w.cid[j]);
+      if (filled == ku && key >= keys[ku - 1])
+        continue;
+      if (w.cid[j] == i)
+        continue;
+      std::size_t pos = filled < ku ? filled++ : ku - 1;
+      while (pos > 0 && keys[pos - 1] > key)
+      {
+        keys[pos] = keys[pos - 1];
+        --pos;
+      }
+      keys[pos] = key;
+    }
+    const float kth = filled ? keyDistance(keys[filled - 1]) : 0.f;
+    if (filled < ku || !(static_cast<double>(std::sqrt(kth)) <= reach))
+    {
+      w.kth.push_back(nearestOfOne(cloud, search, k, i, w, table));
+      continue;
+    }
+    w.kth.push_back(std::sqrt(kth));
+    int* out_i = table.indices.data() + i * k;
+    float* out_d = table.sqr_distances.data() + i * k;
+    for (std::size_t j = 0; j < ku; ++j)
+    {
+      out_i[j] = static_cast<int>(static_cast<std::uint32_t>(keys[j]));
+      out_d[j] = keyDistance(keys[j]);
+    }
+  }
+  learnMargin(w);
+}
+}  // namespace
 
 Status computeNeighborhoods(const LocalCloud& cloud, const pcl::search::Search<pcl::PointXYZ>& search,
                             int k, int threads, NeighborhoodTable& table)
@@ -18,56 +235,14 @@ Status computeNeighborhoods(const LocalCloud& cloud, const pcl::search::Search<p
   table.k = k;
   table.indices.assign(static_cast<std::size_t>(n) * k, 0);
   table.sqr_distances.assign(static_cast<std::size_t>(n) * k, 0.f);
+  const std::ptrdiff_t blocks = (n + kBlock - 1) / kBlock;
 
 #pragma omp parallel num_threads(threads)
   {
-    pcl::Indices found;
-    std::vector<float> d2;
-    std::vector<std::pair<float, int>> row;
-#pragma omp for schedule(dynamic, 2048)
-    for (std::ptrdiff_t i = 0; i < n; ++i)
-    {
-      // k + 1 because the point finds itself (or a duplicate of itself) first, + 1 to see past
-      // the k-th distance: when points tie at that distance, which of them a back end returns
-      // depends on its tree, so ask for more until every tied point is in (then the smallest
-      // indices win, whatever the tree: a tile of the out-of-core path and the whole cloud agree).
-      int ask = k + 2;
-      for (;;)
-      {
-        search.nearestKSearch(cloud[i], std::min<int>(ask, static_cast<int>(n)), found, d2);
-        row.clear();
-        bool self_seen = false;
-        for (std::size_t j = 0; j < found.size(); ++j)
-        {
-          if (!self_seen && found[j] == i)
-          {
-            self_seen = true;
-            continue;
-          }
-          row.emplace_back(d2[j], found[j]);
-        }
-        std::sort(row.begin(), row.end());  // distance, then index: independent of the back end
-        const bool complete = static_cast<std::ptrdiff_t>(found.size()) < ask || ask >= n ||
-                              row.size() <= static_cast<std::size_t>(k) ||
-                              row.back().first > row[static_cast<std::size_t>(k) - 1].first;
-        if (complete && self_seen)
-          break;
-        if (ask >= n)
-          break;
-        ask = static_cast<int>(std::min<std::ptrdiff_t>(n, 2 * static_cast<std::ptrdiff_t>(ask)));
-      }
-      row.resize(std::min<std::size_t>(row.size(), static_cast<std::size_t>(k)));
-      // A back end may return fewer than k + 1 (it should not with n > k); repeat the last.
-      while (row.size() < static_cast<std::size_t>(k))
-        row.push_back(row.empty() ? std::make_pair(0.f, static_cast<int>(i)) : row.back());
-      int* out_i = table.indices.data() + i * k;
-      float* out_d = table.sqr_distances.data() + i * k;
-      for (int j = 0; j < k; ++j)
-      {
-        out_i[j] = row[j].second;
-        out_d[j] = row[j].first;
-      }
-    }
+    Worker w;
+#pragma omp for schedule(dynamic, 64)
+    for (std::ptrdiff_t b = 0; b < blocks; ++b)
+      nearestOfBlock(cloud, search, k, b * kBlock, std::min(n, (b + 1) * kBlock), w, table);
   }
   return Status::Ok;
 }

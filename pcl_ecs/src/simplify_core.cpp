@@ -153,9 +153,7 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
 
   t = Clock::now();
   report("density", 0.0);
-  NanoflannSearch nonfeature_tree;
-  nonfeature_tree.setInputCloudWhere(cloud_ptr, out.is_feature);
-  computeLocalDensity(cloud, table, out.is_feature, nonfeature_tree, threads, out.density);
+  computeLocalDensity(cloud, table, out.is_feature, tree, threads, out.density);
   s.mean_spacing = meanOverNonFeatures(out.density, out.is_feature);
   {
     std::vector<double> root_weights(out.weights.size());
@@ -175,7 +173,7 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
   report("cover", 0.0);
   const CoverInput in{cloud,         out.normals,          out.weights,    out.is_feature,
                       out.curvature, out.density,          s.mean_abs_curvature,
-                      s.mean_spacing, s.neighborhood_radius, s.bbox_diagonal, nonfeature_tree};
+                      s.mean_spacing, s.neighborhood_radius, s.bbox_diagonal, tree};
   if (params.target_size == 0)
   {
     s.error_threshold = params.error_threshold;

@@ -40,15 +40,6 @@ NanoflannSearch::NanoflannSearch(bool sorted)
 
 NanoflannSearch::~NanoflannSearch() = default;
 
-void NanoflannSearch::setInputCloudWhere(const PointCloudConstPtr& cloud, const std::vector<std::uint8_t>& skip)
-{
-  auto kept = std::make_shared<pcl::Indices>();
-  for (std::size_t i = 0; i < skip.size(); ++i)
-    if (!skip[i])
-      kept->push_back(static_cast<int>(i));
-  setInputCloud(cloud, kept);
-}
-
 void NanoflannSearch::setInputCloud(const PointCloudConstPtr& cloud, const IndicesConstPtr& indices)
 {
   input_ = cloud;

@@ -16,13 +16,15 @@ namespace pcl_ecs
 
 namespace
 {
-/// Candidates of one ball from a radius search over the non-feature points, grown on demand.
+/// Candidates of one ball: the non-feature points of a radius search, grown on demand.
 class RadiusQuerySource : public CandidateSource
 {
 public:
-  RadiusQuerySource(const pcl::search::Search<pcl::PointXYZ>& search, const pcl::PointXYZ& centre,
+  RadiusQuerySource(const pcl::search::Search<pcl::PointXYZ>& search,
+                    const std::vector<std::uint8_t>& is_feature, const pcl::PointXYZ& centre,
                     double max_radius, double first_radius)
-    : search_(search), centre_(centre), max_radius_(max_radius), next_radius_(first_radius)
+    : search_(search), is_feature_(is_feature), centre_(centre), max_radius_(max_radius),
+      next_radius_(first_radius)
   {
   }
 
@@ -35,7 +37,8 @@ public:
     candidates.clear();
     candidates.reserve(found_.size());
     for (std::size_t i = 0; i < found_.size(); ++i)
-      candidates.push_back({std::sqrt(static_cast<double>(d2_[i])), found_[i]});
+      if (!is_feature_[static_cast<std::size_t>(found_[i])])
+        candidates.push_back({std::sqrt(static_cast<double>(d2_[i])), found_[i]});
     // Anything at or below the radius asked for is complete; tell the solver so.
     queried_ = radius >= max_radius_ ? std::numeric_limits<double>::infinity() : radius;
     next_radius_ = 1.5 * radius;
@@ -44,6 +47,7 @@ public:
 
 private:
   const pcl::search::Search<pcl::PointXYZ>& search_;
+  const std::vector<std::uint8_t>& is_feature_;
   pcl::PointXYZ centre_;
   double max_radius_;
   double next_radius_;
@@ -83,7 +87,7 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
   // multiple of the mean neighbourhood radius.
   const QuadricSamples samples{in.cloud, in.normals, in.weights};
   const double guess = std::max(w.typical_radius, in.density[cs]);
-  RadiusQuerySource source(in.nonfeature_search, in.cloud[c], 2.0 * cap, 2.0 * 1.25 * guess);
+  RadiusQuerySource source(in.search, in.is_feature, in.cloud[c], 2.0 * cap, 2.0 * 1.25 * guess);
   w.candidates.clear();
   const RadiusSolution sol = solveRadius(samples, centre, in.density[cs], cap, guess,
                                          ball.tolerance, in.bbox_diagonal, params.error_form,

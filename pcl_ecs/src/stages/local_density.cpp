@@ -1,5 +1,6 @@
 #include <pcl_ecs/stages/local_density.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 
@@ -8,7 +9,7 @@ namespace pcl_ecs
 
 void computeLocalDensity(const LocalCloud& cloud, const NeighborhoodTable& table,
                          const std::vector<std::uint8_t>& is_feature,
-                         const pcl::search::Search<pcl::PointXYZ>& nonfeature_search,
+                         const pcl::search::Search<pcl::PointXYZ>& search,
                          int threads, std::vector<double>& dens)
 {
   const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(table.size());
@@ -31,19 +32,20 @@ void computeLocalDensity(const LocalCloud& cloud, const NeighborhoodTable& table
           best = nd[j];  // sorted: the first non-feature neighbour is the nearest
           break;
         }
-      if (best < 0.0)
+      // Every K-neighbour is a feature point: ask for more until a non-feature point shows (the
+      // smallest distance among those is the answer, whichever of tied points the search returns).
+      for (int ask = 4 * table.k; best < 0.0; ask *= 2)
       {
-        // Every K-neighbour is a feature point: ask the non-feature search (self + one other).
-        nonfeature_search.nearestKSearch(cloud[i], 2, found, d2);
+        const int want = static_cast<int>(std::min<std::ptrdiff_t>(ask, n));
+        search.nearestKSearch(cloud[i], want, found, d2);
         for (std::size_t j = 0; j < found.size(); ++j)
-          if (found[j] != i)
-          {
+          if (found[j] != i && !is_feature[static_cast<std::size_t>(found[j])] && (best < 0.0 || d2[j] < best))
             best = d2[j];
-            break;
-          }
-        if (best < 0.0)
-          best = 0.0;  // the only non-feature point: no spacing to speak of
+        if (want >= n)
+          break;
       }
+      if (best < 0.0)
+        best = 0.0;  // the only non-feature point: no spacing to speak of
       dens[static_cast<std::size_t>(i)] = std::sqrt(best);
     }
   }

@@ -967,9 +967,7 @@ void Runner::phaseB(int t)
   tree.setInputCloud(d.cloud);
   NeighborhoodTable table;
   computeNeighborhoods(*d.cloud, tree, params_.k_neighbors, tile_threads_, table);
-  NanoflannSearch nonfeature_tree;
-  nonfeature_tree.setInputCloudWhere(d.cloud, is_feature);
-  computeLocalDensity(*d.cloud, table, is_feature, nonfeature_tree, tile_threads_, density);
+  computeLocalDensity(*d.cloud, table, is_feature, tree, tile_threads_, density);
   std::fill(sums.begin(), sums.end(), 0.0);
   sums[5] = 1.0;
   for (std::size_t i = 0; i < n; ++i)
@@ -1045,10 +1043,10 @@ void Runner::phaseC(int t)
         pre_covered[i] = 1;
   }
 
-  NanoflannSearch nonfeature_tree;
-  nonfeature_tree.setInputCloudWhere(d.cloud, is_feature);
+  NanoflannSearch tree;
+  tree.setInputCloud(d.cloud);
   CoverInput in{*d.cloud,          normals,      weights,     is_feature, curvature, density, mean_abs_h_,
-                mean_spacing_,     neighborhood_radius_, summary_.bbox_diagonal, nonfeature_tree};
+                mean_spacing_,     neighborhood_radius_, summary_.bbox_diagonal, tree};
   in.centre_allowed = &d.is_core;
   in.pre_covered = &pre_covered;
   Parameters p = params_;

@@ -38,10 +38,6 @@ public:
   using pcl::search::Search<pcl::PointXYZ>::nearestKSearch;
   using pcl::search::Search<pcl::PointXYZ>::radiusSearch;
 
-  /** \brief Build over the points of `cloud` whose `skip` entry is 0 (e.g. the non-feature
-   * points, with skip = is_feature); results index `cloud`. */
-  void setInputCloudWhere(const PointCloudConstPtr& cloud, const std::vector<std::uint8_t>& skip);
-
 private:
   struct Impl;
   std::unique_ptr<Impl> impl_;

@@ -41,8 +41,8 @@ struct CoverInput
   /// distance to the K neighbours; robust where eq. 5 is not (duplicates, quantised coordinates)
   double neighborhood_radius;
   double bbox_diagonal;                     ///< L
-  /// radius search over the non-feature points only (results index `cloud`)
-  const pcl::search::Search<pcl::PointXYZ>& nonfeature_search;
+  /// radius search over all of `cloud` (feature points in its results are skipped)
+  const pcl::search::Search<pcl::PointXYZ>& search;
   /// optional (the out-of-core path): only points with a non-zero entry may be centres
   const std::vector<std::uint8_t>* centre_allowed = nullptr;
   /// optional (the out-of-core path): points covered already (by a neighbouring tile's balls);

@@ -15,13 +15,12 @@ namespace pcl_ecs
 {
 
 /** \brief Eq. 5 for every non-feature point (feature points get 0).
- * The table answers for almost every point; a point whose K neighbours are all feature points is
- * answered by `nonfeature_search`, a search over the non-feature points alone (results are
- * indices into `cloud`).
+ * The table answers for almost every point; a point whose K neighbours are all feature points asks
+ * `search` (over all of `cloud`) for more neighbours until one is not a feature point.
  * \param[out] dens distance (not squared), local-frame units */
 void computeLocalDensity(const LocalCloud& cloud, const NeighborhoodTable& table,
                          const std::vector<std::uint8_t>& is_feature,
-                         const pcl::search::Search<pcl::PointXYZ>& nonfeature_search,
+                         const pcl::search::Search<pcl::PointXYZ>& search,
                          int threads, std::vector<double>& dens);
 
 /** \brief Eq. 6: the mean of dens over the non-feature points (0 when there are none). */
