@@ -60,7 +60,7 @@ void NanoflannSearch::setInputCloud(const PointCloudConstPtr& cloud, const Indic
   else
     for (std::size_t i = 0; i < cloud->size(); ++i)
       add(static_cast<int>(i));
-  impl_->tree = std::make_unique<Tree>(3, impl_->points, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+  impl_->tree = std::make_unique<Tree>(3, impl_->points, nanoflann::KDTreeSingleIndexAdaptorParams(40));
   impl_->tree->buildIndex();
 }
 
@@ -90,7 +90,8 @@ int NanoflannSearch::radiusSearch(const pcl::PointXYZ& point, double radius, pcl
   k_sqr_distances.clear();
   if (!impl_->tree || !(radius >= 0.0))
     return 0;
-  std::vector<std::pair<std::uint32_t, float>> matches;
+  // One buffer per thread, kept from call to call: growing a fresh one was a large part of a query.
+  thread_local std::vector<std::pair<std::uint32_t, float>> matches;
   const float q[3] = {point.x, point.y, point.z};
   nanoflann::SearchParams params;
   params.sorted = sorted_results_ || max_nn > 0;

@@ -25,7 +25,21 @@ void candidatePlanes(const QuadricSamples& samples, const Eigen::Vector3d& centr
     const auto j = static_cast<std::size_t>(candidates[i].index);
     const Eigen::Vector3d n = samples.normals[j].cast<double>();
     const Eigen::Vector3d offset = samples.cloud[j].getVector3fMap().cast<double>() - centre;
-    planes[i] = {n, n.dot(offset), samples.weights[j], candidates[i].distance};
+    const double a = samples.weights[j], d = n.dot(offset);
+    CandidatePlane& p = planes[i];
+    p.distance = candidates[i].distance;
+    const double an0 = a * n.x(), an1 = a * n.y(), an2 = a * n.z();
+    p.terms[0] = an0 * n.x();
+    p.terms[1] = an0 * n.y();
+    p.terms[2] = an0 * n.z();
+    p.terms[3] = an1 * n.y();
+    p.terms[4] = an1 * n.z();
+    p.terms[5] = an2 * n.z();
+    p.terms[6] = an0 * d;
+    p.terms[7] = an1 * d;
+    p.terms[8] = an2 * d;
+    p.terms[9] = a * d * d;
+    p.terms[10] = a;
   }
 }
 
@@ -35,15 +49,20 @@ RadiusEvaluation evaluateRadius(const std::vector<CandidatePlane>& planes, doubl
   RadiusEvaluation ev;
   ev.radius = r;
   const double R = 2.0 * r;
-  Quadric q;
+  double sum[11] = {};
   for (const CandidatePlane& p : planes)
   {
     if (p.distance > R)
       continue;
-    const double w = p.weight * kernelG(p.distance, R);
-    if (w > 0.0)
-      q.addPlane(w, p.normal, p.offset);
+    const double g = kernelG(p.distance, R);
+    for (int t = 0; t < 11; ++t)
+      sum[t] += g * p.terms[t];
   }
+  Quadric q;
+  q.A << sum[0], sum[1], sum[2], sum[1], sum[3], sum[4], sum[2], sum[4], sum[5];
+  q.b << sum[6], sum[7], sum[8];
+  q.c = sum[9];
+  q.weight_sum = sum[10];
   ev.minimum = minimizeQuadric(q);
   ev.weight_sum = q.weight_sum;
   ev.error = errorOf(ev.minimum, q.weight_sum, L, form);
@@ -69,7 +88,8 @@ RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d&
   if (!(floor > 0.0))
     return sol;  // a duplicate of another point, or nothing around: the centre alone
 
-  std::vector<CandidatePlane> planes;
+  thread_local std::vector<CandidatePlane> planes;  // kept from ball to ball: no allocation each
+  planes.clear();
   auto eval = [&](double r) {
     if (source.ensure(2.0 * r, candidates) || planes.size() != candidates.size())
       candidatePlanes(samples, centre, candidates, planes);

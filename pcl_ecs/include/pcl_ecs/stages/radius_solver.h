@@ -51,14 +51,13 @@ struct RadiusEvaluation
   double weight_sum = 0.0;
 };
 
-/** \brief The tangent plane of one candidate relative to the centre, with its eq. 1 weight:
- * precomputed once per radius query, read by every E(r). */
+/** \brief The tangent plane of one candidate relative to the centre as the terms it adds to eq. 13
+ * (before the kernel weight): precomputed once per radius query, read by every E(r). */
 struct CandidatePlane
 {
-  Eigen::Vector3d normal;  ///< n_j
-  double offset;           ///< n_j · (p_j - c)
-  double weight;           ///< a_j
-  double distance;         ///< |p_j - c|
+  double distance;  ///< |p_j - c|
+  /// a_j × (n n^T: xx, xy, xz, yy, yz, zz; d n: x, y, z; d²; 1), d = n_j · (p_j - c), a_j eq. 1
+  double terms[11];
 };
 
 /** \brief The planes of `candidates`, in the same order. */
