@@ -372,6 +372,33 @@ TEST_F(OutOfCore, SameOutputForAnyThreadCount)
   EXPECT_GT(sa.size(), 1000u);
 }
 
+// Pass 1 is the only read of the input: emptying the file once the scan is over (the plan line)
+// changes nothing, whether the split opened it again or rewound the scan's reader.
+TEST_F(OutOfCore, ReadsTheInputOnce)
+{
+  Parameters params;
+  fs::copy_file(path("scan.pcd"), path("once.pcd"), fs::copy_options::overwrite_existing);
+  StreamOptions opt = tiled("scratch-once");
+  bool emptied = false;
+  opt.progress = [&](const std::string& line) {
+    if (!emptied && line.rfind("plan:", 0) == 0)
+    {
+      std::ofstream(path("once.pcd"), std::ios::binary | std::ios::trunc).flush();
+      emptied = true;
+    }
+  };
+  simplifyOutOfCore(path("once.pcd"), path("once_out.pcd"), params, opt);
+  ASSERT_TRUE(emptied);
+  EXPECT_EQ(fs::file_size(path("once.pcd")), 0u);
+  EXPECT_FALSE(fs::exists(path("scratch-once")));  // the copy of pass 1 went with the rest
+  StreamOptions ref = tiled("scratch-once-ref");
+  simplifyOutOfCore(path("scan.pcd"), path("once_ref.pcd"), params, ref);
+  std::ifstream a(path("once_out.pcd"), std::ios::binary), b(path("once_ref.pcd"), std::ios::binary);
+  const std::string sa((std::istreambuf_iterator<char>(a)), {}), sb((std::istreambuf_iterator<char>(b)), {});
+  EXPECT_EQ(sa, sb);
+  EXPECT_GT(sa.size(), 1000u);
+}
+
 TEST_F(OutOfCore, RefusesWhatItCannotDo)
 {
   Parameters params;

@@ -57,8 +57,8 @@ Scans larger than memory (PCD in, binary PCD out; docs/STREAMING.md):
                       input are kept. Output depends on --memory-limit (the tiling), not on
                       --threads.
   --memory-limit SIZE memory budget, e.g. 512M, 2G (default: a quarter of the RAM, >= 256M)
-  --scratch DIR       scratch directory (default OUTPUT.ecs-scratch); needs about 140 bytes
-                      per input point plus 1.3 × the input's size (50M points: 6.5 GiB); removed
+  --scratch DIR       scratch directory (default OUTPUT.ecs-scratch); needs about 150 bytes
+                      per input point plus 2.3 × the input's size free (50M points use 6.5 GiB); removed
                       on success
   --keep-scratch      keep the scratch directory after success
   --tile-points N     largest tile, own points + halo (default: from --memory-limit); smaller

@@ -277,6 +277,8 @@ struct Paths
     return root / "c" / (std::to_string(target) + ".from." + std::to_string(writer));
   }
   fs::path plan() const { return root / "plan.txt"; }
+  /// the finite points as pass 1 read them: (input index, record) each; read by the split
+  fs::path points() const { return root / "points.bin"; }
 };
 
 /// What the scan and the split establish; saved in plan.txt (text, exact doubles).
@@ -470,7 +472,7 @@ private:
     if (options_.kill_after_steps && done >= options_.kill_after_steps)
       std::raise(SIGKILL);
   }
-  void scanAndPlan();
+  void scanAndPlan(io::PcdStreamReader& reader);
   void split();
   TileData loadTile(int t) const;
   void phaseA(int t);
@@ -498,10 +500,9 @@ private:
   Eigen::Vector3d viewpoint_local_ = Eigen::Vector3d::Zero();
 };
 
-void Runner::scanAndPlan()
+void Runner::scanAndPlan(io::PcdStreamReader& reader)
 {
   const auto t0 = Clock::now();
-  io::PcdStreamReader reader(input_);
   header_ = reader.header();
   const io::XyzAccess xyz(header_);
   const std::size_t step = header_.point_step;
@@ -510,16 +511,29 @@ void Runner::scanAndPlan()
   sample.reserve(std::min<std::uint64_t>(header_.points, kSampleTarget + kSampleTarget / 10));
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
   std::vector<std::uint8_t> chunk;
+  // The one read of the input: the finite points go to scratch as they come (with their input
+  // index), and the split reads them from there; the input is not opened again.
+  const std::string copy_tmp = paths_.points().string() + ".tmp";
+  std::ofstream copy(copy_tmp, std::ios::binary | std::ios::trunc);
+  if (!copy)
+    failRun("cannot create " + copy_tmp);
+  std::vector<std::uint8_t> out;
+  out.reserve(kChunk * (8 + step));
   std::uint64_t gid = 0, finite = 0;
   std::size_t n;
   while ((n = reader.read(kChunk, chunk)) > 0)
   {
+    out.clear();
     for (std::size_t i = 0; i < n; ++i, ++gid)
     {
       double x, y, z;
-      xyz.get(chunk.data() + i * step, x, y, z);
+      const std::uint8_t* rec = chunk.data() + i * step;
+      xyz.get(rec, x, y, z);
       if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
         continue;
+      const auto* g = reinterpret_cast<const std::uint8_t*>(&gid);
+      out.insert(out.end(), g, g + 8);
+      out.insert(out.end(), rec, rec + step);
       ++finite;
       const Eigen::Vector3d p(x, y, z);
       lo = lo.cwiseMin(p);
@@ -527,6 +541,9 @@ void Runner::scanAndPlan()
       if (inSample(gid, fraction))
         sample.push_back(p);
     }
+    copy.write(reinterpret_cast<const char*>(out.data()), static_cast<std::streamsize>(out.size()));
+    if (!copy)
+      failRun("cannot write " + copy_tmp + " (disk full?)");
     if ((gid & ((1u << 22) - 1)) < kChunk)
     {
       std::ostringstream os;
@@ -534,6 +551,10 @@ void Runner::scanAndPlan()
       report(os.str());
     }
   }
+  copy.close();
+  if (!copy)
+    failRun("cannot write " + copy_tmp + " (disk full?)");
+  fs::rename(copy_tmp, paths_.points());
   plan_.input_points = header_.points;
   plan_.finite_points = finite;
   plan_.lo = lo;
@@ -642,7 +663,9 @@ void Runner::scanAndPlan()
 void Runner::split()
 {
   const auto t0 = Clock::now();
-  io::PcdStreamReader reader(input_);
+  std::ifstream points(paths_.points(), std::ios::binary);
+  if (!points)
+    failRun("cannot read " + paths_.points().string());
   const io::XyzAccess xyz(header_);
   const std::size_t step = header_.point_step;
   const std::size_t tiles = plan_.tree.tiles.size();
@@ -678,15 +701,23 @@ void Runner::split()
   }
   for (Tile& t : plan_.tree.tiles)
     t.core_points = t.halo_points = 0;
-  std::vector<std::uint8_t> chunk;
+  const std::size_t record = 8 + step;
+  std::vector<std::uint8_t> chunk(kChunk * record);
   std::vector<int> near;
-  std::uint64_t gid = 0;
-  std::size_t n;
-  while ((n = reader.read(kChunk, chunk)) > 0)
+  std::uint64_t gid = 0, done = 0;
+  for (;;)
   {
-    for (std::size_t i = 0; i < n; ++i, ++gid)
+    points.read(reinterpret_cast<char*>(chunk.data()), static_cast<std::streamsize>(chunk.size()));
+    const std::size_t bytes = static_cast<std::size_t>(points.gcount());
+    if (bytes % record != 0)
+      failRun(paths_.points().string() + " is truncated");
+    const std::size_t n = bytes / record;
+    if (n == 0)
+      break;
+    for (std::size_t i = 0; i < n; ++i, ++done)
     {
-      const std::uint8_t* rec = chunk.data() + i * step;
+      std::memcpy(&gid, chunk.data() + i * record, 8);
+      const std::uint8_t* rec = chunk.data() + i * record + 8;
       double c[3];
       xyz.get(rec, c[0], c[1], c[2]);
       if (!std::isfinite(c[0]) || !std::isfinite(c[1]) || !std::isfinite(c[2]))
@@ -712,15 +743,17 @@ void Runner::split()
           s.put(rec, step);
         }
     }
-    if ((gid & ((1u << 22) - 1)) < kChunk)
+    if ((done & ((1u << 22) - 1)) < kChunk)
     {
       const double s = secondsSince(t0);
       std::ostringstream os;
-      os << "split: " << gid << " / " << header_.points << " points, " << std::fixed << std::setprecision(2)
-         << (s > 0 ? static_cast<double>(gid) / s / 1e6 : 0.0) << " M points/s";
+      os << "split: " << done << " / " << plan_.finite_points << " points, " << std::fixed << std::setprecision(2)
+         << (s > 0 ? static_cast<double>(done) / s / 1e6 : 0.0) << " M points/s";
       report(os.str());
     }
   }
+  if (done != plan_.finite_points)
+    failRun(paths_.points().string() + " holds fewer points than the scan found");
   for (std::size_t t = 0; t < tiles; ++t)
   {
     core[t].flush();
@@ -733,6 +766,9 @@ void Runner::split()
     fs::rename(paths_.halo(static_cast<int>(t)).string() + ".tmp", paths_.halo(static_cast<int>(t)));
   }
   savePlan(paths_, plan_);  // the split is complete once the plan exists
+  points.close();
+  std::error_code ec;
+  fs::remove(paths_.points(), ec);  // the tiles hold every point now
   summary_.stage_seconds[1] = secondsSince(t0);
 }
 
@@ -1192,11 +1228,11 @@ StreamSummary Runner::run()
   paths_.root = options_.scratch_dir.empty() ? fs::path(output_ + ".ecs-scratch") : fs::path(options_.scratch_dir);
   const std::string fingerprint =
       fingerprintOf(input_, params_, memory_limit_) + " tile=" + std::to_string(options_.max_tile_points);
-  {
-    io::PcdStreamReader probe(input_);  // the header first: bad input is refused before any work
-    header_ = probe.header();
-    (void)io::XyzAccess(header_);
-  }
+  // The header first: bad input is refused before any work. The same reader then does the scan
+  // (the input is opened and read once).
+  io::PcdStreamReader reader(input_);
+  header_ = reader.header();
+  (void)io::XyzAccess(header_);
   std::error_code ec;
   if (fs::exists(paths_.root, ec))
   {
@@ -1216,8 +1252,9 @@ StreamSummary Runner::run()
     if (ec)
       failRun("cannot create the scratch directory " + paths_.root.string() + ": " + ec.message());
     std::ofstream(paths_.root / kScratchMarker) << "scratch space of pcd_simplify --stream; safe to delete\n";
-    // Refuse up front when the scratch space cannot hold the run (~140 B a point + the records).
-    const std::uint64_t need = header_.points * (140ull + (13ull * header_.point_step) / 10);
+    // Refuse up front when the scratch space cannot hold the run: ~140 B a point, the records in
+    // the tiles (1.3 × with their halo) and, until the split is done, the copy of pass 1.
+    const std::uint64_t need = header_.points * (148ull + (23ull * header_.point_step) / 10);
     const auto space = fs::space(paths_.root, ec);
     if (!ec && space.available < need)
     {
@@ -1230,7 +1267,7 @@ StreamSummary Runner::run()
     plan_.fingerprint = fingerprint;
     try
     {
-      scanAndPlan();
+      scanAndPlan(reader);
       split();
     }
     catch (...)
