@@ -401,25 +401,23 @@ MeshTopology analyzeTopology(std::size_t num_points, const std::vector<Triangle>
   return topo;
 }
 
-CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const CoconeParameters& params)
+namespace
 {
-  CoconeResult result;
-  CoconeStats& st = result.stats;
-  const auto t_start = Clock::now();
-  st.input_points = points.size();
-  if (const std::string why = params.validate(); !why.empty())
-  {
-    result.error = "invalid Cocone parameters: " + why;
-    return result;
-  }
-  if (points.size() >= kNone)
-  {
-    result.error = "too many points for 32-bit indices";
-    return result;
-  }
 
-  // ---- 1. Delaunay triangulation ---------------------------------------------------------------
-  auto t0 = Clock::now();
+/// The tetrahedra of step 1 as flat arrays: every later pass reads these instead of chasing CGAL's
+/// handles.
+struct CellArrays
+{
+  std::uint32_t count = 0;
+  std::vector<std::array<std::uint32_t, 4>> v;  ///< vertex ids (kNone: the infinite vertex)
+  std::vector<std::array<std::uint32_t, 4>> n;  ///< neighbour across the facet opposite vertex k
+};
+
+/// Step 1: the Delaunay triangulation of the distinct finite points (of several at one position
+/// the first in input order is the vertex). False, with `error` set, when there is no volume.
+bool delaunayCells(const std::vector<Eigen::Vector3d>& points, CoconeStats& st, CellArrays& cells,
+                   std::string& error)
+{
   // Distinct finite points; of several at one position the first in input order is the vertex.
   std::vector<std::uint32_t> ids;
   ids.reserve(points.size());
@@ -457,9 +455,8 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
   ids.shrink_to_fit();
   if (finite_count < 4)
   {
-    result.error = "Cocone needs at least 4 finite points, got " + std::to_string(finite_count);
-    st.time_total = since(t_start);
-    return result;
+    error = "Cocone needs at least 4 finite points, got " + std::to_string(finite_count);
+    return false;
   }
   // Insertion in CGAL's biased randomised Hilbert order (its shuffle has a fixed seed) with the
   // previous vertex as the hint, as CGAL's own range insertion does.
@@ -477,24 +474,19 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
   st.vertices = dt.number_of_vertices();
   if (dt.dimension() < 3)
   {
-    result.error = dt.dimension() == 2   ? "the points are coplanar: they span no volume to triangulate"
-                   : dt.dimension() == 1 ? "the points are collinear: they span no volume to triangulate"
-                                         : "all points are at the same position";
-    st.time_total = since(t_start);
-    return result;
+    error = dt.dimension() == 2   ? "the points are coplanar: they span no volume to triangulate"
+            : dt.dimension() == 1 ? "the points are collinear: they span no volume to triangulate"
+                                  : "all points are at the same position";
+    return false;
   }
   st.delaunay_cells = dt.number_of_finite_cells();
-  st.time_delaunay = since(t0);
-
-  // ---- 2. Poles --------------------------------------------------------------------------------
-  t0 = Clock::now();
-  const std::size_t n = points.size();
-  // Flat copies of the cells (vertex ids, neighbour ids): every later pass reads these arrays
-  // instead of chasing CGAL's handles.
-  std::uint32_t cell_count = 0;
+  std::uint32_t& cell_count = cells.count;
   for (auto c = dt.all_cells_begin(); c != dt.all_cells_end(); ++c)
     c->info() = cell_count++;
-  std::vector<std::array<std::uint32_t, 4>> cell_v(cell_count), cell_n(cell_count);
+  auto& cell_v = cells.v;
+  auto& cell_n = cells.n;
+  cell_v.resize(cell_count);
+  cell_n.resize(cell_count);
   for (auto c = dt.all_cells_begin(); c != dt.all_cells_end(); ++c)
     for (int k = 0; k < 4; ++k)
     {
@@ -504,6 +496,27 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
     }
   dt.clear();  // the flat arrays hold all that is needed from here on
 
+  return true;
+}
+
+/// Step 2: per cell its circumcentre (or, on the hull, the direction of its Voronoi ray); per
+/// vertex the pole axis (to the farthest circumcentre; the outward hull normal on the hull) and
+/// h_p, the distance to the negative pole.
+struct Poles
+{
+  std::vector<Eigen::Vector3d> cc;  ///< per cell: circumcentre, or ray direction
+  std::vector<char> cell_kind;      ///< per cell: 0 invalid, 1 finite circumcentre, 2 infinite (ray)
+  std::vector<char> is_hull, is_vertex, has_axis;  ///< per point
+  std::vector<Eigen::Vector3d> axis;               ///< per point, unit where has_axis
+  std::vector<double> height;                      ///< per point: h_p
+};
+
+Poles computePoles(const std::vector<Eigen::Vector3d>& points, const CellArrays& ca, CoconeStats& st)
+{
+  const std::size_t n = points.size();
+  const std::uint32_t cell_count = ca.count;
+  const auto& cell_v = ca.v;
+  const auto& cell_n = ca.n;
   auto infiniteIndex = [&](std::uint32_t c) {
     for (int k = 0; k < 4; ++k)
       if (cell_v[c][k] == kNone)
@@ -635,17 +648,35 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
         height[v] = std::max(height[v], d.norm());
     }
   }
-  st.time_poles = since(t0);
+  return Poles{std::move(cc), std::move(cell_kind), std::move(is_hull), std::move(is_vertex), std::move(has_axis),
+               std::move(axis), std::move(height)};
+}
 
-  // ---- 3. Cocone test of every Delaunay triangle ----------------------------------------------
-  t0 = Clock::now();
+/// A Delaunay triangle whose dual Voronoi edge meets the cocone of at least one of its vertices.
+struct Facet
+{
+  Triangle v;
+  std::uint8_t accept;  ///< bit k: the dual edge meets vertex k's cocone
+  float radius[3];      ///< how far from vertex k the edge stays in its cocone
+};
+
+/// Step 3: the cocone test of every Delaunay triangle. `radius` gets r_p per vertex: how far the
+/// accepted dual edges stay in its cocone.
+std::vector<Facet> coconeFacets(const std::vector<Eigen::Vector3d>& points, const CellArrays& ca, const Poles& poles,
+                                const CoconeParameters& params, std::vector<double>& radius)
+{
+  const std::size_t n = points.size();
+  const std::uint32_t cell_count = ca.count;
+  const auto& cell_v = ca.v;
+  const auto& cell_n = ca.n;
+  const auto& cc = poles.cc;
+  const auto& cell_kind = poles.cell_kind;
+  const auto& has_axis = poles.has_axis;
+  const auto& axis = poles.axis;
+  const auto cells = static_cast<std::int64_t>(cell_count);
+  std::vector<Facet> facets;
+  radius.assign(n, 0.0);
   const double cos_limit = std::sin(params.cocone_angle);  // cos(π/2 − θ)
-  struct Facet
-  {
-    Triangle v;
-    std::uint8_t accept;  // bit k: the dual edge meets vertex k's cocone
-    float radius[3];      // how far from vertex k the edge stays in its cocone
-  };
   // Facet (c, i) is visited from the cell with the smaller index; results land in a slot per
   // (cell, i), so the parallel loop gives the same array whatever the thread count.
   std::vector<Facet> slots(static_cast<std::size_t>(cell_count) * 4);
@@ -706,8 +737,6 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
       }
     }
   }
-  std::vector<Facet> facets;
-  std::vector<double> radius(n, 0.0);
   for (const Facet& f : slots)
     if (f.accept)
     {
@@ -716,16 +745,21 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
         if (f.accept & (1u << k))
           radius[f.v[k]] = std::max(radius[f.v[k]], static_cast<double>(f.radius[k]));
     }
-  slots.clear();
-  slots.shrink_to_fit();
-  cell_v.clear();
-  cell_v.shrink_to_fit();
-  cell_n.clear();
-  cell_n.shrink_to_fit();
-  cc.clear();
-  cc.shrink_to_fit();
+  return facets;
+}
 
-  // ---- 4. Boundary samples (Dey-Giesen) -------------------------------------------------------
+/// Step 4 (Dey-Giesen): the regular samples, those whose cocone is thin and agrees with their
+/// cocone neighbours'; the others are boundary samples. Without boundary detection every vertex
+/// with an axis is regular.
+std::vector<char> regularSamples(const std::vector<Eigen::Vector3d>& points, const Poles& poles,
+                                 const std::vector<Facet>& facets, const std::vector<double>& radius,
+                                 const CoconeParameters& params, CoconeStats& st)
+{
+  const std::size_t n = points.size();
+  const auto& has_axis = poles.has_axis;
+  const auto& axis = poles.axis;
+  const auto& height = poles.height;
+  const auto& is_vertex = poles.is_vertex;
   std::vector<char> regular(n, 0);
   for (std::uint32_t i = 0; i < n; ++i)
     regular[i] = has_axis[i];
@@ -791,6 +825,17 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
       st.boundary_samples += (is_vertex[i] && !regular[i]) ? 1 : 0;
   }
 
+  return regular;
+}
+
+/// The candidate triangles: those accepted by the cocones of all their regular vertices (at least
+/// one), without the ones that span a gap in the sampling, in a canonical order. `spacing` gets
+/// the local sample spacing per vertex (the median candidate edge length there).
+std::vector<Triangle> candidateTriangles(const std::vector<Eigen::Vector3d>& points, const std::vector<Facet>& facets,
+                                         const std::vector<char>& regular, const CoconeParameters& params,
+                                         CoconeStats& st, std::vector<double>& spacing)
+{
+  const std::size_t n = points.size();
   std::vector<Triangle> cand;
   cand.reserve(facets.size());
   for (const Facet& f : facets)
@@ -808,7 +853,7 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
   }
   // Local sample spacing: the median length of the candidate edges at a vertex (robust to the
   // clumps of random sampling, which make nearest-neighbour distances tiny).
-  std::vector<double> spacing(n, 0.0);
+  spacing.assign(n, 0.0);
   {
     std::vector<std::uint32_t> off(n + 1, 0);
     for (const Triangle& t : cand)
@@ -852,19 +897,20 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
     }
     cand.resize(kept);
   }
-  facets.clear();
-  facets.shrink_to_fit();
   // Canonical order (and vertex order within a triangle) so that what follows does not depend on
   // the order in which CGAL stores its cells.
   for (Triangle& t : cand)
     std::sort(t.begin(), t.end());
   std::sort(cand.begin(), cand.end());
   st.candidate_triangles = cand.size();
-  st.time_cocone = since(t0);
+  return cand;
+}
 
-  // ---- 5. Pruning ------------------------------------------------------------------------------
-  t0 = Clock::now();
-  const EdgeIndex edges(cand);
+/// Step 5: prune the triangles at sharp edges (an angular gap above sharp_edge_angle) and those
+/// with two free edges, until none is left; returns which candidates are alive.
+std::vector<char> pruneCandidates(const std::vector<Eigen::Vector3d>& points, const std::vector<Triangle>& cand,
+                                  const EdgeIndex& edges, const CoconeParameters& params, CoconeStats& st)
+{
   std::vector<char> alive(cand.size(), 1);
   if (params.prune)
   {
@@ -951,10 +997,26 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
       }
     }
   }
-  st.time_prune = since(t0);
+  return alive;
+}
 
-  // ---- 6. Extraction walk ----------------------------------------------------------------------
-  t0 = Clock::now();
+/// The walk's result: the extracted triangles in walk order (indices into the candidates) and the
+/// same triangles, consistently oriented.
+struct Extraction
+{
+  std::vector<std::uint32_t> order;
+  std::vector<Triangle> out;
+};
+
+/// Step 6: walk the live candidates into oriented pieces, each edge crossed to the neighbour that
+/// turns least; seeds: first the hull's extreme-x vertex, then any unused triangle.
+Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std::vector<Triangle>& cand,
+                          const EdgeIndex& edges, const std::vector<char>& alive, const Poles& poles)
+{
+  const std::size_t n = points.size();
+  const auto& is_hull = poles.is_hull;
+  const auto& has_axis = poles.has_axis;
+  const auto& axis = poles.axis;
   std::vector<signed char> orient(cand.size(), 0);  // +1: as stored, −1: reversed
   std::vector<std::uint32_t> order;                  // extracted triangles, in walk order
   std::vector<std::uint32_t> component_of;
@@ -1086,15 +1148,17 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
           vertex_used[x] = 1;
     }
   }
-  st.extracted_triangles = order.size();
-  st.time_extract = since(t0);
-
-  // ---- 7. Clean-up: at most two triangles per edge, one fan per vertex ---------------------------
-  t0 = Clock::now();
   std::vector<Triangle> out;
   out.reserve(order.size());
   for (std::uint32_t t : order)
     out.push_back(oriented(t));
+  return Extraction{std::move(order), std::move(out)};
+}
+
+/// Step 7, first part: at most two triangles per edge (the first two in walk order, if they
+/// disagree in direction) and one fan per vertex (its largest); returns which triangles stay.
+std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n)
+{
   std::vector<char> keep(out.size(), 1);
   {
     // Edges: keep the first two triangles in walk order, and only if they disagree in direction.
@@ -1208,29 +1272,34 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
         }
     }
   }
-  // Close notches and small holes with candidate triangles: a candidate whose orientation matches
-  // at least two current boundary edges (and whose third edge is free or a matching boundary edge)
-  // is added. This keeps the mesh manifold and mends the places where the walk met a sliver from
-  // two sides and the clean-up had to drop a triangle.
-  // Edge use of the kept triangles, shared by the two filling steps below.
-  struct EdgeUse
+  return keep;
+}
+
+/// Step 7, second part: triangles added to the kept mesh, with the use of every edge tracked.
+class MeshFill
+{
+public:
+  MeshFill(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& spacing,
+           const CoconeParameters& params, std::vector<Triangle>& out, std::vector<char>& keep, CoconeStats& st)
+    : points_(points), spacing_(spacing), params_(params), out_(out), keep_(keep), st_(st)
   {
-    int count = 0;
-    std::uint32_t from = 0;  // for one triangle: the edge is traversed from -> other
-  };
-  std::unordered_map<std::uint64_t, EdgeUse> use;
-  use.reserve(out.size() * 2);
-  auto addEdges = [&](const Triangle& tri) {
-    for (int k = 0; k < 3; ++k)
-    {
-      EdgeUse& u = use[edgeKey(tri[k], tri[(k + 1) % 3])];
-      ++u.count;
-      u.from = tri[k];
-    }
-  };
-  for (std::uint32_t i = 0; i < out.size(); ++i)
-    if (keep[i])
-      addEdges(out[i]);
+    use_.reserve(out.size() * 2);
+    for (std::uint32_t i = 0; i < out.size(); ++i)
+      if (keep[i])
+        addEdges(out[i]);
+  }
+
+  /// Close notches and small holes with candidate triangles: a candidate whose orientation matches
+  /// at least two current boundary edges (and whose third edge is free or a matching boundary edge)
+  /// is added. This keeps the mesh manifold and mends the places where the walk met a sliver from
+  /// two sides and the clean-up had to drop a triangle.
+  void fillNotches(const std::vector<Triangle>& cand, const std::vector<char>& alive, const EdgeIndex& edges,
+                   const std::vector<std::uint32_t>& order)
+  {
+    auto& out = out_;
+    auto& keep = keep_;
+    auto& use = use_;
+    auto& st = st_;
   {
     std::vector<char> in_mesh(cand.size(), 0);
     for (std::uint32_t i = 0; i < out.size(); ++i)
@@ -1288,10 +1357,21 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
       frontier.swap(next_frontier);
     }
   }
-  // Holes (boundary loops of at most max_edges edges) are closed by ear clipping, shortest new edge
-  // first; a loop whose ears would all create an existing edge (or, with the ratio guard, an edge
-  // longer than max_edge_ratio × the local spacing: a gap in the sampling) is left open.
-  auto closeLoops = [&](std::size_t max_edges, bool ratio_guard) -> std::size_t {
+  }
+
+  /// Holes (boundary loops of at most max_edges edges) are closed by ear clipping, shortest new
+  /// edge first; a loop whose ears would all create an existing edge (or, with the ratio guard, an
+  /// edge longer than max_edge_ratio × the local spacing: a gap in the sampling) is left open.
+  /// Returns the number of loops closed.
+  std::size_t closeLoops(std::size_t max_edges, bool ratio_guard)
+  {
+    const auto& points = points_;
+    const auto& spacing = spacing_;
+    const auto& params = params_;
+    auto& out = out_;
+    auto& keep = keep_;
+    auto& use = use_;
+    auto& st = st_;
     // Hole edges: existing a → b gives hole edge b → a. A vertex with two outgoing hole edges (two
     // openings meeting at it) is ambiguous: loops through it are left alone.
     std::unordered_map<std::uint32_t, std::uint32_t> hole_next;
@@ -1392,21 +1472,44 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
       ++closed_loops;
     }
     return closed_loops;
+  }
+
+private:
+  struct EdgeUse
+  {
+    int count = 0;
+    std::uint32_t from = 0;  // for one triangle: the edge is traversed from -> other
   };
-  if (params.fill_hole_edges >= 3)
-    closeLoops(params.fill_hole_edges, true);
-  if (params.watertight)
-    st.sealed_loops = closeLoops(std::numeric_limits<std::size_t>::max() - 1, false);
-  // Components (through shared edges) of what is kept; small ones are dropped.
+  void addEdges(const Triangle& tri)
+  {
+    for (int k = 0; k < 3; ++k)
+    {
+      EdgeUse& u = use_[edgeKey(tri[k], tri[(k + 1) % 3])];
+      ++u.count;
+      u.from = tri[k];
+    }
+  }
+
+  const std::vector<Eigen::Vector3d>& points_;
+  const std::vector<double>& spacing_;
+  const CoconeParameters& params_;
+  std::vector<Triangle>& out_;
+  std::vector<char>& keep_;
+  CoconeStats& st_;
+  std::unordered_map<std::uint64_t, EdgeUse> use_;
+};
+
+/// Step 7, last part: the components (through shared edges) of what is kept; those of fewer than
+/// min_component_triangles triangles are dropped.
+std::vector<Triangle> keepLargeComponents(const std::vector<Triangle>& out, const std::vector<char>& keep,
+                                          const CoconeParameters& params, CoconeStats& st)
+{
+  std::vector<Triangle> result;
   {
     std::vector<Triangle> kept;
-    std::vector<std::uint32_t> kept_index;
     for (std::uint32_t t = 0; t < out.size(); ++t)
       if (keep[t])
-      {
         kept.push_back(out[t]);
-        kept_index.push_back(t);
-      }
     UnionFind uf(kept.size());
     const EdgeIndex index(kept);
     const auto& pairs = index.pairs();
@@ -1422,9 +1525,76 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
       if (uf.find(t) == t && size[t] >= min_size)
         ++st.components;
       if (size[uf.find(t)] >= min_size)
-        result.triangles.push_back(kept[t]);
+        result.push_back(kept[t]);
     }
   }
+  return result;
+}
+
+}  // namespace
+
+CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const CoconeParameters& params)
+{
+  CoconeResult result;
+  CoconeStats& st = result.stats;
+  const auto t_start = Clock::now();
+  st.input_points = points.size();
+  if (const std::string why = params.validate(); !why.empty())
+  {
+    result.error = "invalid Cocone parameters: " + why;
+    return result;
+  }
+  if (points.size() >= kNone)
+  {
+    result.error = "too many points for 32-bit indices";
+    return result;
+  }
+  const std::size_t n = points.size();
+
+  auto t0 = Clock::now();
+  CellArrays cells;
+  if (!delaunayCells(points, st, cells, result.error))
+  {
+    st.time_total = since(t_start);
+    return result;
+  }
+  st.time_delaunay = since(t0);
+
+  t0 = Clock::now();
+  Poles poles = computePoles(points, cells, st);
+  st.time_poles = since(t0);
+
+  t0 = Clock::now();
+  std::vector<double> radius, spacing;
+  std::vector<Facet> facets = coconeFacets(points, cells, poles, params, radius);
+  cells = CellArrays{};
+  poles.cc = {};
+  poles.cell_kind = {};
+  const std::vector<char> regular = regularSamples(points, poles, facets, radius, params, st);
+  const std::vector<Triangle> cand = candidateTriangles(points, facets, regular, params, st, spacing);
+  facets = {};
+  st.time_cocone = since(t0);
+
+  t0 = Clock::now();
+  const EdgeIndex edges(cand);
+  const std::vector<char> alive = pruneCandidates(points, cand, edges, params, st);
+  st.time_prune = since(t0);
+
+  t0 = Clock::now();
+  Extraction walked = extractSurface(points, cand, edges, alive, poles);
+  st.extracted_triangles = walked.order.size();
+  st.time_extract = since(t0);
+
+  t0 = Clock::now();
+  std::vector<Triangle>& out = walked.out;
+  std::vector<char> keep = keepManifold(out, n);
+  MeshFill fill(points, spacing, params, out, keep, st);
+  fill.fillNotches(cand, alive, edges, walked.order);
+  if (params.fill_hole_edges >= 3)
+    fill.closeLoops(params.fill_hole_edges, true);
+  if (params.watertight)
+    st.sealed_loops = fill.closeLoops(std::numeric_limits<std::size_t>::max() - 1, false);
+  result.triangles = keepLargeComponents(out, keep, params, st);
   st.cleanup_removed_triangles = st.extracted_triangles + st.filled_triangles - result.triangles.size();
   st.time_cleanup = since(t0);
   st.triangles = result.triangles.size();
