@@ -384,6 +384,23 @@ TEST(Filter, TargetSizeWithinOnePercent)
   }
 }
 
+// A target cap so tight that it, not T_err, sets the count: raising T stops changing the output,
+// the search notices (one ×4 step with no change) and widens the cap at once, instead of bisecting
+// towards T = 1 (which took 40 covers on the terrain scan).
+TEST(Filter, TargetSearchLeavesABindingCapQuickly)
+{
+  auto cloud = loadShared("bunny.pcd");
+  Filter f;
+  f.setTargetSize(1100);
+  f.setTargetRadiusCap(0.8);
+  const Cloud out = run(cloud, f);
+  const auto& s = f.getResult().summary;
+  EXPECT_NEAR(static_cast<double>(out.size()), 1100.0, 11.0);
+  EXPECT_GT(s.radius_cap_factor, 0.8 * std::sqrt(static_cast<double>(cloud->size() - s.feature_points) /
+                                                 (16.0 * (1100.0 - static_cast<double>(s.feature_points)))));
+  EXPECT_LE(s.target_iterations, 25);
+}
+
 TEST(Filter, TargetCapFollowsTheTargetAndFallsBackNearTheInputSize)
 {
   auto cloud = loadShared("bunny.pcd");

@@ -214,40 +214,70 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
     };
     const double lowest = 1e-12, highest = 0.999;
     const double tol = 0.01 * target;
+    // One search at the current cap: bracket T (×4 steps), then interpolate in log-log (the count
+    // falls about like a power of T) inside the bracket. A count that stops changing while T moves
+    // by 4× means the radius cap (or the point count), not T, sets it: this cap cannot do better.
     auto search = [&]() {
+      const double before = best_distance;
       double lo = std::min(std::max(params.error_threshold, lowest), highest);  // T giving too many
       double hi = lo;                                                           // T giving too few
-      const double before = best_distance;
-      double balls = attempt(lo);
-      if (std::abs(balls - balls_wanted) > tol)
+      double b_lo = attempt(lo), b_hi = b_lo;
+      if (std::abs(b_lo - balls_wanted) <= tol)
+        return best_distance < before;
+      if (b_lo > balls_wanted)
       {
-        if (balls > balls_wanted)
+        while (b_hi > balls_wanted && hi < highest && best_distance > tol)
         {
-          // Raise T until too few points.
-          while (balls > balls_wanted && hi < highest && best_distance > tol)
-          {
-            lo = hi;
-            hi = std::min(hi * 4.0, highest);
-            balls = attempt(hi);
-          }
+          lo = hi;
+          b_lo = b_hi;
+          hi = std::min(hi * 4.0, highest);
+          b_hi = attempt(hi);
+          if (b_hi >= b_lo)
+            return best_distance < before;
+        }
+        if (b_hi > balls_wanted)
+          return best_distance < before;
+      }
+      else
+      {
+        while (b_lo < balls_wanted && lo > lowest && best_distance > tol)
+        {
+          hi = lo;
+          b_hi = b_lo;
+          lo = std::max(lo / 4.0, lowest);
+          b_lo = attempt(lo);
+          if (b_lo <= b_hi)
+            return best_distance < before;
+        }
+        if (b_lo < balls_wanted)
+          return best_distance < before;
+      }
+      // Regula falsi on f = log(count / wanted) against log T, with the Illinois rule (an end kept
+      // twice in a row has its f halved) so that both ends move.
+      double f_lo = std::log(std::max(b_lo, 0.5) / balls_wanted), f_hi = std::log(std::max(b_hi, 0.5) / balls_wanted);
+      int kept_side = 0;  // +1: lo was kept last time, -1: hi was
+      for (int it = 0; it < 40 && best_distance > tol && hi / lo > 1.0 + 1e-9; ++it)
+      {
+        double theta = f_lo > f_hi ? f_lo / (f_lo - f_hi) : 0.5;
+        theta = std::min(std::max(theta, 0.05), 0.95);
+        const double mid = lo * std::pow(hi / lo, theta);
+        const double b = attempt(mid);
+        const double f = std::log(std::max(b, 0.5) / balls_wanted);
+        if (b > balls_wanted)
+        {
+          lo = mid;
+          f_lo = f;
+          if (kept_side == -1)
+            f_hi *= 0.5;
+          kept_side = -1;
         }
         else
         {
-          while (balls < balls_wanted && lo > lowest && best_distance > tol)
-          {
-            hi = lo;
-            lo = std::max(lo / 4.0, lowest);
-            balls = attempt(lo);
-          }
-        }
-        for (int it = 0; it < 40 && best_distance > tol && hi / lo > 1.0 + 1e-9; ++it)
-        {
-          const double mid = std::sqrt(lo * hi);
-          const double b = attempt(mid);
-          if (b > balls_wanted)
-            lo = mid;
-          else
-            hi = mid;
+          hi = mid;
+          f_hi = f;
+          if (kept_side == 1)
+            f_lo *= 0.5;
+          kept_side = 1;
         }
       }
       return best_distance < before;
