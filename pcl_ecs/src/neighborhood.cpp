@@ -61,6 +61,7 @@ struct Worker
   std::vector<float> cx, cy, cz;  // candidates of a block, by coordinate
   std::vector<int> cid;
   std::vector<std::uint64_t> keys;
+  std::vector<float> dist;  // squared distances of one point to the candidates
   std::vector<float> kth;  // K-th distances of the current block
   float margin = 0.f;  // recent K-th neighbour distance: how far around a block to look
 };
@@ -169,6 +170,7 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
   w.cy.resize(m);
   w.cz.resize(m);
   w.cid.resize(m);
+  w.dist.resize(m);
   for (std::size_t j = 0; j < m; ++j)
   {
     const pcl::PointXYZ& p = cloud[w.found[j]];
@@ -188,10 +190,15 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
     // (the bits of a non-negative float order like the float), kept sorted by insertion.
     std::uint64_t* keys = w.keys.data();
     std::size_t filled = 0;
-    for (std::size_t j = 0; j < m; ++j)
+    float* d2 = w.dist.data();
+    for (std::size_t j = 0; j < m; ++j)  // vectorises
     {
       const float dx = q.x - w.cx[j], dy = q.y - w.cy[j], dz = q.z - w.cz[j];
-      const std::uint64_t key = pairKey(dx * dx + dy * dy + dz * dz, w.cid[j]);
+      d2[j] = dx * dx + dy * dy + dz * dz;
+    }
+    for (std::size_t j = 0; j < m; ++j)
+    {
+      const std::uint64_t key = pairKey(d2[j], w.cid[j]);
       if (filled == ku && key >= keys[ku - 1])
         continue;
       if (w.cid[j] == i)
