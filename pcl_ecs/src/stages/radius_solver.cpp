@@ -40,6 +40,7 @@ void candidatePlanes(const QuadricSamples& samples, const Eigen::Vector3d& centr
     p.terms[8] = an2 * d;
     p.terms[9] = a * d * d;
     p.terms[10] = a;
+    p.terms[11] = 0.0;
   }
 }
 
@@ -49,13 +50,13 @@ RadiusEvaluation evaluateRadius(const std::vector<CandidatePlane>& planes, doubl
   RadiusEvaluation ev;
   ev.radius = r;
   const double R = 2.0 * r;
-  double sum[11] = {};
+  double sum[12] = {};
   for (const CandidatePlane& p : planes)
   {
     if (p.distance > R)
       continue;
     const double g = kernelG(p.distance, R);
-    for (int t = 0; t < 11; ++t)
+    for (int t = 0; t < 12; ++t)
       sum[t] += g * p.terms[t];
   }
   Quadric q;

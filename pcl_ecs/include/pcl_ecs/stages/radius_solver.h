@@ -57,7 +57,7 @@ struct CandidatePlane
 {
   double distance;  ///< |p_j - c|
   /// a_j × (n n^T: xx, xy, xz, yy, yz, zz; d n: x, y, z; d²; 1), d = n_j · (p_j - c), a_j eq. 1
-  double terms[11];
+  double terms[12];  // the last is padding (0): whole SIMD pairs
 };
 
 /** \brief The planes of `candidates`, in the same order. */
