@@ -1,6 +1,7 @@
 #include <pcl_ecs/spatial_order.h>
 
 #include <algorithm>
+#include <parallel/algorithm>
 #include <cmath>
 #include <utility>
 
@@ -37,12 +38,21 @@ std::uint64_t mortonCode(const Eigen::Vector3d& p, const Eigen::Vector3d& lo, co
 }
 
 void sortByMortonCode(std::vector<int>& ids, const std::function<Eigen::Vector3d(int)>& position,
-                      const Eigen::Vector3d& lo, const Eigen::Vector3d& hi)
+                      const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int threads)
 {
+  threads = std::max(1, threads);
   std::vector<std::pair<std::uint64_t, int>> keyed(ids.size());
-  for (std::size_t i = 0; i < ids.size(); ++i)
-    keyed[i] = {mortonCode(position(ids[i]), lo, hi), ids[i]};
-  std::sort(keyed.begin(), keyed.end());
+  const auto count = static_cast<std::ptrdiff_t>(ids.size());
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (std::ptrdiff_t i = 0; i < count; ++i)
+    keyed[static_cast<std::size_t>(i)] = {mortonCode(position(ids[static_cast<std::size_t>(i)]), lo, hi),
+                                          ids[static_cast<std::size_t>(i)]};
+  // (code, id) pairs are all distinct: any correct sort gives the one order, in parallel or not.
+  if (threads > 1)
+    __gnu_parallel::sort(keyed.begin(), keyed.end(),
+                         __gnu_parallel::default_parallel_tag(static_cast<__gnu_parallel::_ThreadIndex>(threads)));
+  else
+    std::sort(keyed.begin(), keyed.end());
   for (std::size_t i = 0; i < ids.size(); ++i)
     ids[i] = keyed[i].second;
 }

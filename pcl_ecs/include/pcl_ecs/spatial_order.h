@@ -15,8 +15,10 @@ namespace pcl_ecs
 /** \brief The 63-bit Morton code of p in the box [lo, hi] (21 bits per axis). */
 std::uint64_t mortonCode(const Eigen::Vector3d& p, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
 
-/** \brief Sort `ids` by the Morton code of position(id) in [lo, hi], ties by id: deterministic. */
+/** \brief Sort `ids` by the Morton code of position(id) in [lo, hi], ties by id: deterministic
+ * (the same order for any `threads`, the number of threads used; `position` is called from
+ * several at once). */
 void sortByMortonCode(std::vector<int>& ids, const std::function<Eigen::Vector3d(int)>& position,
-                      const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
+                      const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int threads = 1);
 
 }  // namespace pcl_ecs

@@ -119,7 +119,7 @@ void FeatureAwareCoverSimplify<PointT>::applyFilter(PointCloud& output)
           const PointT& p = (*input_)[idx];
           return Eigen::Vector3d(p.x, p.y, p.z);
         },
-        lo, hi);
+        lo, hi, resolveThreads(params_.threads));
     const Eigen::Vector3d origin = 0.5 * (lo + hi);
     auto local = std::make_shared<LocalCloud>();
     local->resize(used.size());
