@@ -7,6 +7,7 @@
 #include <pcl_ecs/stages/seeded_order.h>
 
 #include <algorithm>
+#include <parallel/algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -205,9 +206,16 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
     const std::uint64_t colour = (ix & 1u) | ((iy & 1u) << 1) | ((iz & 1u) << 2);
     entries[r] = {(colour << 60) | (ix << 40) | (iy << 20) | iz, static_cast<std::uint32_t>(r), order[r]};
   }
-  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+  // (cell, rank) pairs are all distinct: any correct sort, parallel or not, gives the one order.
+  const auto by_cell = [](const Entry& a, const Entry& b) {
     return a.cell < b.cell || (a.cell == b.cell && a.rank < b.rank);
-  });
+  };
+  const int threads = resolveThreads(params.threads);
+  if (threads > 1)
+    __gnu_parallel::sort(entries.begin(), entries.end(), by_cell,
+                         __gnu_parallel::default_parallel_tag(static_cast<__gnu_parallel::_ThreadIndex>(threads)));
+  else
+    std::sort(entries.begin(), entries.end(), by_cell);
   // Cell boundaries, and where each colour starts.
   std::vector<std::size_t> cell_begin;
   for (std::size_t e = 0; e < entries.size(); ++e)
@@ -230,7 +238,6 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
     for (std::size_t i = 0; i < n; ++i)
       if ((*in.pre_covered)[i])
         owner[i] = kPreCovered;
-  const int threads = resolveThreads(params.threads);
   for (int col = 0; col < 8; ++col)
   {
     const std::ptrdiff_t first = static_cast<std::ptrdiff_t>(colour_begin[static_cast<std::size_t>(col)]);
