@@ -196,9 +196,13 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
     std::uint32_t rank;  // position in the seeded order
     int point;
   };
+  const int threads = resolveThreads(params.threads);
   std::vector<Entry> entries(order.size());
-  for (std::size_t r = 0; r < order.size(); ++r)
+  const auto centres = static_cast<std::ptrdiff_t>(order.size());
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (std::ptrdiff_t ri = 0; ri < centres; ++ri)
   {
+    const auto r = static_cast<std::size_t>(ri);
     const Eigen::Vector3d q = (in.cloud[order[r]].getVector3fMap().cast<double>() - lo) / side;
     const std::uint64_t ix = static_cast<std::uint64_t>(std::min(q.x(), 1048575.0));
     const std::uint64_t iy = static_cast<std::uint64_t>(std::min(q.y(), 1048575.0));
@@ -210,7 +214,6 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
   const auto by_cell = [](const Entry& a, const Entry& b) {
     return a.cell < b.cell || (a.cell == b.cell && a.rank < b.rank);
   };
-  const int threads = resolveThreads(params.threads);
   if (threads > 1)
     __gnu_parallel::sort(entries.begin(), entries.end(), by_cell,
                          __gnu_parallel::default_parallel_tag(static_cast<__gnu_parallel::_ThreadIndex>(threads)));
