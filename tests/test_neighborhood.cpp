@@ -111,3 +111,37 @@ TEST(Neighborhood, ExactOnTiesDuplicatesAndOutliers)
       EXPECT_EQ(wrong, 0u) << search->getName() << ", " << threads << " threads";
     }
 }
+
+// Far from the origin (coordinates ~4000, spacing ~0.0015, a float's step there 2.4e-4: the
+// points sit on a coarse lattice, with many equal distances) the blocked search stays exact.
+TEST(Neighborhood, ExactFarFromTheOrigin)
+{
+  Rng rng(29);
+  auto cloud = std::make_shared<Cloud>();
+  for (int i = 0; i < 6000; ++i)
+    cloud->push_back(toPoint({4000.0 + rng.uniform(0, 0.12), -3000.0 + rng.uniform(0, 0.12), 2000.0 + 0.0005 * rng.uniform()}));
+  for (int i = 0; i < 50; ++i)
+    cloud->push_back(toPoint({4000.0 + rng.uniform(-30, 30), -3000.0 + rng.uniform(-30, 30), 2000.0 + rng.uniform(-30, 30)}));
+  const int k = 16;
+  pcl_ecs::NanoflannSearch nano;
+  nano.setInputCloud(cloud);
+  pcl_ecs::NeighborhoodTable table;
+  ASSERT_EQ(pcl_ecs::computeNeighborhoods(*cloud, nano, k, 2, table), pcl_ecs::Status::Ok);
+  std::size_t wrong = 0;
+  std::vector<std::pair<float, int>> all;
+  for (std::size_t i = 0; i < cloud->size(); ++i)
+  {
+    all.clear();
+    for (std::size_t j = 0; j < cloud->size(); ++j)
+      if (j != i)
+      {
+        const pcl::PointXYZ &a = (*cloud)[i], &b = (*cloud)[j];
+        const float dx = a.x - b.x, dy = a.y - b.y, dz = a.z - b.z;
+        all.emplace_back(dx * dx + dy * dy + dz * dz, static_cast<int>(j));
+      }
+    std::partial_sort(all.begin(), all.begin() + k, all.end());
+    for (int j = 0; j < k; ++j)
+      wrong += table.neighbors(i)[j] != all[static_cast<std::size_t>(j)].second ? 1 : 0;
+  }
+  EXPECT_EQ(wrong, 0u);
+}

@@ -138,8 +138,11 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
     lo = lo.cwiseMin(cloud[i].getVector3fMap());
     hi = hi.cwiseMax(cloud[i].getVector3fMap());
   }
-  const Eigen::Vector3d centre = 0.5 * (lo + hi).cast<double>();
-  const double half_diagonal = 0.5 * (hi - lo).cast<double>().norm();
+  // The query centre is a float point, as the search sees it: distances to it from the points
+  // (floats too) are then accurate relative to the distance, not to the coordinates.
+  const Eigen::Vector3f centre_f = 0.5f * (lo + hi);
+  const Eigen::Vector3d centre = centre_f.cast<double>();
+  const double half_diagonal = std::max((lo.cast<double>() - centre).norm(), (hi.cast<double>() - centre).norm());
   const std::ptrdiff_t count = last - first;
   if (count > 1 && half_diagonal > 2.0 * w.margin)
   {
@@ -151,9 +154,7 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
   }
   const double radius = half_diagonal + 1.2 * static_cast<double>(w.margin);
   pcl::PointXYZ c;
-  c.x = static_cast<float>(centre.x());
-  c.y = static_cast<float>(centre.y());
-  c.z = static_cast<float>(centre.z());
+  c.getVector3fMap() = centre_f;
   search.radiusSearch(c, radius, w.found, w.d2);
   const std::size_t m = w.found.size();
   w.kth.clear();
