@@ -34,7 +34,7 @@ void computeLocalDensity(const LocalCloud& cloud, const NeighborhoodTable& table
         }
       // Every K-neighbour is a feature point: ask for more until a non-feature point shows (the
       // smallest distance among those is the answer, whichever of tied points the search returns).
-      for (int ask = 4 * table.k; best < 0.0; ask *= 2)
+      for (std::ptrdiff_t ask = 4 * static_cast<std::ptrdiff_t>(table.k); best < 0.0; ask *= 2)
       {
         const int want = static_cast<int>(std::min<std::ptrdiff_t>(ask, n));
         search.nearestKSearch(cloud[i], want, found, d2);
