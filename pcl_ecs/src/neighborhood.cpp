@@ -13,13 +13,6 @@ namespace
 {
 using Pair = std::pair<float, int>;  // squared distance, index: ordered by distance, then index
 
-/// Squared distance in float, summed x, y, z in that order (as the search back ends do).
-inline float sqrDistance(const pcl::PointXYZ& a, const pcl::PointXYZ& b)
-{
-  const float dx = a.x - b.x, dy = a.y - b.y, dz = a.z - b.z;
-  return dx * dx + dy * dy + dz * dz;
-}
-
 /// Write the k first pairs of `row` (sorted) as row i of the table, repeating the last when short.
 void storeRow(std::vector<Pair>& row, int k, std::ptrdiff_t i, NeighborhoodTable& table)
 {
@@ -66,9 +59,9 @@ struct Worker
   float margin = 0.f;  // recent K-th neighbour distance: how far around a block to look
 };
 
-/// The K nearest of point i (returned: the K-th distance) by one query of `search` per attempt. k + 1 because the point finds
-/// itself (or a duplicate of itself) first, + 1 to see past the k-th distance: when points tie at
-/// that distance, which of them a back end returns depends on its tree, so ask for more until
+/// The K nearest of point i (returned: the K-th distance) by one query of `search` per attempt.
+/// k + 1 because the point finds itself (or a duplicate of itself) first, + 1 to see past the k-th
+/// distance: when points tie at that distance, which of them a back end returns depends on its tree, so ask for more until
 /// every tied point is in (then the smallest indices win, whatever the tree: a tile of the
 /// out-of-core path and the whole cloud agree).
 float nearestOfOne(const LocalCloud& cloud, const pcl::search::Search<pcl::PointXYZ>& search, int k,
@@ -116,7 +109,7 @@ void learnMargin(Worker& w)
 }
 
 constexpr std::ptrdiff_t kBlock = 32;          // consecutive points answered together
-constexpr std::size_t kMaxCandidates = 4096;   // beyond this a block is split
+constexpr std::size_t kMaxCandidates = 4096;   // beyond this a block's points are answered alone
 
 /// The K nearest of the points [first, last) together: one radius query of `search` around the
 /// block gathers every point that can be among their neighbours, then each point picks its K

@@ -1,7 +1,8 @@
 #include <pcl_ecs/spatial_order.h>
 
+#include "parallel_sort.h"
+
 #include <algorithm>
-#include <parallel/algorithm>
 #include <cmath>
 #include <utility>
 
@@ -47,12 +48,7 @@ void sortByMortonCode(std::vector<int>& ids, const std::function<Eigen::Vector3d
   for (std::ptrdiff_t i = 0; i < count; ++i)
     keyed[static_cast<std::size_t>(i)] = {mortonCode(position(ids[static_cast<std::size_t>(i)]), lo, hi),
                                           ids[static_cast<std::size_t>(i)]};
-  // (code, id) pairs are all distinct: any correct sort gives the one order, in parallel or not.
-  if (threads > 1)
-    __gnu_parallel::sort(keyed.begin(), keyed.end(),
-                         __gnu_parallel::default_parallel_tag(static_cast<__gnu_parallel::_ThreadIndex>(threads)));
-  else
-    std::sort(keyed.begin(), keyed.end());
+  sortWithThreads(keyed.begin(), keyed.end(), threads);  // (code, id) pairs are all distinct
   for (std::size_t i = 0; i < ids.size(); ++i)
     ids[i] = keyed[i].second;
 }

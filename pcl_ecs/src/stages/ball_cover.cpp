@@ -6,8 +6,9 @@
 #include <pcl_ecs/stages/radius_solver.h>
 #include <pcl_ecs/stages/seeded_order.h>
 
+#include "../parallel_sort.h"
+
 #include <algorithm>
-#include <parallel/algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -210,15 +211,10 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
     const std::uint64_t colour = (ix & 1u) | ((iy & 1u) << 1) | ((iz & 1u) << 2);
     entries[r] = {(colour << 60) | (ix << 40) | (iy << 20) | iz, static_cast<std::uint32_t>(r), order[r]};
   }
-  // (cell, rank) pairs are all distinct: any correct sort, parallel or not, gives the one order.
-  const auto by_cell = [](const Entry& a, const Entry& b) {
+  // (cell, rank) pairs are all distinct: one order whatever the threads.
+  sortWithThreads(entries.begin(), entries.end(), threads, [](const Entry& a, const Entry& b) {
     return a.cell < b.cell || (a.cell == b.cell && a.rank < b.rank);
-  };
-  if (threads > 1)
-    __gnu_parallel::sort(entries.begin(), entries.end(), by_cell,
-                         __gnu_parallel::default_parallel_tag(static_cast<__gnu_parallel::_ThreadIndex>(threads)));
-  else
-    std::sort(entries.begin(), entries.end(), by_cell);
+  });
   // Cell boundaries, and where each colour starts.
   std::vector<std::size_t> cell_begin;
   for (std::size_t e = 0; e < entries.size(); ++e)

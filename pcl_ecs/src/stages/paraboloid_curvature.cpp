@@ -1,12 +1,12 @@
 #include <pcl_ecs/stages/paraboloid_curvature.h>
 #include <pcl_ecs/stages/tangent_frame.h>
 
-#include <cmath>
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <limits>
 
-#include <Eigen/Dense>
+#include <Eigen/Core>
 
 namespace pcl_ecs
 {

@@ -719,9 +719,7 @@ void Runner::split()
       std::memcpy(&gid, chunk.data() + i * record, 8);
       const std::uint8_t* rec = chunk.data() + i * record + 8;
       double c[3];
-      xyz.get(rec, c[0], c[1], c[2]);
-      if (!std::isfinite(c[0]) || !std::isfinite(c[1]) || !std::isfinite(c[2]))
-        continue;
+      xyz.get(rec, c[0], c[1], c[2]);  // finite: the scan copied only finite points
       const std::array<double, 2> p{{c[plan_.axis_u], c[plan_.axis_v]}};
       const int own = plan_.tree.locate(p);
       Tile& ot = plan_.tree.tiles[static_cast<std::size_t>(own)];

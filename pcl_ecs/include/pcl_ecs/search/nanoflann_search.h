@@ -3,9 +3,6 @@
 // small K-nearest and radius queries of the method. Distances are SQUARED, as everywhere in PCL.
 #pragma once
 
-#include <cstdint>
-#include <vector>
-
 #include <memory>
 
 #include <pcl/point_types.h>

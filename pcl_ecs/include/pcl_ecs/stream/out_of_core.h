@@ -1,11 +1,12 @@
 // out_of_core.h — the paper's method on PCD scans larger than memory (docs/STREAMING.md).
 //
-//  scan   stream the input once: count, bounds and a deterministic ~1M-point sample;
+//  scan   stream the input once (its only read): count, bounds, a deterministic ~1M-point
+//         sample, and a binary copy of the finite points in the scratch directory;
 //  plan   split the sample's 2D footprint (the two longest axes) into tiles of even point
 //         counts, sized so that a tile with its halo fits the memory budget; estimate the halo
 //         width (neighbourhoods + the largest ball) from the sample;
-//  split  stream the input again: every point to its tile's core file, and to the halo file of
-//         every other tile within the halo width (scratch directory);
+//  split  stream that copy: every point to its tile's core file, and to the halo file of every
+//         other tile within the halo width (scratch directory); the copy is then deleted;
 //  A      per tile: K-neighbourhoods, normals, eq. 1, eq. 3 and eq. 7-11 → per-tile sums;
 //         δ = α × the mean measure over ALL points (eq. 4);
 //  B      per tile: features, eq. 5 → the global means of eq. 6, eq. 12 and the radius unit;
