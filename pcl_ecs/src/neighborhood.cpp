@@ -54,6 +54,7 @@ struct Worker
   std::vector<float> cx, cy, cz;  // candidates of a block, by coordinate
   std::vector<int> cid;
   std::vector<std::uint64_t> keys;
+  std::vector<std::uint32_t> sel;  // candidates within a bound
   std::vector<float> dist;  // squared distances of one point to the candidates
   std::vector<float> kth;  // K-th distances of the current block
   float margin = 0.f;  // recent K-th neighbour distance: how far around a block to look
@@ -175,6 +176,9 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
   }
   const std::size_t ku = static_cast<std::size_t>(k);
   w.keys.resize(ku);
+  w.sel.resize(m);
+  std::ptrdiff_t prev = -1;  // the last point of the block answered from the candidates
+  float prev_kth = 0.f;
   for (std::ptrdiff_t i = first; i < last; ++i)
   {
     const pcl::PointXYZ& q = cloud[i];
@@ -190,13 +194,32 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
       const float dx = q.x - w.cx[j], dy = q.y - w.cy[j], dz = q.z - w.cz[j];
       d2[j] = dx * dx + dy * dy + dz * dz;
     }
-    for (std::size_t j = 0; j < m; ++j)
+    // Only candidates within `bound` can be among the k nearest when at least k others are: the
+    // previous point's k neighbours and that point itself lie within its k-th distance plus the
+    // step between the two. Collected without branches, then ranked; if fewer than k + 1 fall
+    // inside (rounding), every candidate is ranked. Either way the result is the k smallest keys.
+    std::size_t inside = m;
+    if (prev >= 0)
     {
+      const float step = (q.getVector3fMap() - cloud[prev].getVector3fMap()).norm();
+      const float b = (prev_kth + step) * 1.0001f;
+      const float bound = b * b;
+      std::uint32_t* sel = w.sel.data();
+      std::size_t c = 0;
+      for (std::size_t j = 0; j < m; ++j)
+      {
+        sel[c] = static_cast<std::uint32_t>(j);
+        c += d2[j] <= bound ? 1 : 0;
+      }
+      if (c > ku)
+        inside = c;
+    }
+    auto consider = [&](std::size_t j) {
       const std::uint64_t key = pairKey(d2[j], w.cid[j]);
       if (filled == ku && key >= keys[ku - 1])
-        continue;
+        return;
       if (w.cid[j] == i)
-        continue;
+        return;
       std::size_t pos = filled < ku ? filled++ : ku - 1;
       while (pos > 0 && keys[pos - 1] > key)
       {
@@ -204,7 +227,13 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
         --pos;
       }
       keys[pos] = key;
-    }
+    };
+    if (inside < m)
+      for (std::size_t s = 0; s < inside; ++s)
+        consider(w.sel[s]);
+    else
+      for (std::size_t j = 0; j < m; ++j)
+        consider(j);
     const float kth = filled ? keyDistance(keys[filled - 1]) : 0.f;
     if (filled < ku || !(static_cast<double>(std::sqrt(kth)) <= reach))
     {
@@ -212,6 +241,8 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
       continue;
     }
     w.kth.push_back(std::sqrt(kth));
+    prev = i;
+    prev_kth = std::sqrt(kth);
     int* out_i = table.indices.data() + i * k;
     float* out_d = table.sqr_distances.data() + i * k;
     for (std::size_t j = 0; j < ku; ++j)
