@@ -13,6 +13,24 @@ namespace pcl_ecs
 
 namespace
 {
+/// Σ a[i] b[i] over [from, to) with four partial sums: independent chains instead of one long
+/// dependency chain of additions (the fit's reflections are dot products over the K rows).
+inline double dotRange(const double* a, const double* b, int from, int to)
+{
+  double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+  int i = from;
+  for (; i + 3 < to; i += 4)
+  {
+    s0 += a[i] * b[i];
+    s1 += a[i + 1] * b[i + 1];
+    s2 += a[i + 2] * b[i + 2];
+    s3 += a[i + 3] * b[i + 3];
+  }
+  for (; i < to; ++i)
+    s0 += a[i] * b[i];
+  return (s0 + s1) + (s2 + s3);
+}
+
 /// Least squares min |A x - z| by Householder QR (eq. 9), on at most 5 columns stored column
 /// by column. Small and allocation-free: the fit runs once per point. Returns false when a
 /// column's R diagonal is negligible against the largest (the rows do not determine x).
@@ -22,9 +40,7 @@ bool householderLeastSquares(double (*a)[256], double* z, int rows, int cols, do
   for (int j = 0; j < cols; ++j)
   {
     double* col = a[j];
-    double norm2 = 0.0;
-    for (int i = j; i < rows; ++i)
-      norm2 += col[i] * col[i];
+    const double norm2 = dotRange(col, col, j, rows);
     const double norm = std::sqrt(norm2);
     if (!(norm > 0.0))
     {
@@ -36,10 +52,7 @@ bool householderLeastSquares(double (*a)[256], double* z, int rows, int cols, do
     const double vnorm2 = 2.0 * norm * (norm + std::abs(col[j]));
     col[j] -= alpha;
     auto reflect = [&](double* y) {
-      double s = 0.0;
-      for (int i = j; i < rows; ++i)
-        s += col[i] * y[i];
-      s *= 2.0 / vnorm2;
+      const double s = dotRange(col, y, j, rows) * (2.0 / vnorm2);
       for (int i = j; i < rows; ++i)
         y[i] -= s * col[i];
     };
@@ -82,13 +95,14 @@ double paraboloidMeanCurvature(const Eigen::Vector3d& centre, const Eigen::Vecto
   scale = std::sqrt(scale);
   if (!(scale > 0.0))
     return 0.0;
+  const double inv_scale = 1.0 / scale;
   double a[5][kMaxRows];  // eq. 8 (+ x, y for the tilted fit), column by column
   double z[kMaxRows];     // eq. 10
   int rows = 0;
   for (std::size_t i = 0; i < count; ++i)
   {
     // Coordinates scaled by the neighbourhood size so the rank decision of the QR is scale-free.
-    const Eigen::Vector3d q = (points[i] - centre) / scale;
+    const Eigen::Vector3d q = (points[i] - centre) * inv_scale;
     const double x = q.dot(u), y = q.dot(v);
     if (x * x + y * y <= 0.0)
       continue;  // the centre (or a duplicate) adds nothing to a fit through the origin

@@ -49,13 +49,13 @@ RadiusEvaluation evaluateRadius(const std::vector<CandidatePlane>& planes, doubl
 {
   RadiusEvaluation ev;
   ev.radius = r;
-  const double R = 2.0 * r;
+  const double R = 2.0 * r, inv_R = 1.0 / R;
   double sum[12] = {};
   for (const CandidatePlane& p : planes)
   {
     if (p.distance > R)
       continue;
-    const double g = kernelG(p.distance, R);
+    const double g = kernelOfRatio(p.distance * inv_R);  // distances are >= 0
     for (int t = 0; t < 12; ++t)
       sum[t] += g * p.terms[t];
   }

@@ -11,10 +11,9 @@
 namespace pcl_ecs
 {
 
-/** \brief G_σ(ρ); σ > 0, ρ a distance (not squared). */
-inline double kernelG(double rho, double sigma)
+/** \brief G_σ(ρ) as a function of t = |ρ| / σ >= 0 (G_1(t)). */
+inline double kernelOfRatio(double t)
 {
-  const double t = std::abs(rho) / sigma;
   if (t <= 0.5)
     return std::exp(-8.0 * t * t);
   if (t <= 1.0)
@@ -23,6 +22,12 @@ inline double kernelG(double rho, double sigma)
     return 16.0 * std::exp(-2.0) * s * s * s * s;
   }
   return 0.0;
+}
+
+/** \brief G_σ(ρ); σ > 0, ρ a distance (not squared). */
+inline double kernelG(double rho, double sigma)
+{
+  return kernelOfRatio(std::abs(rho) / sigma);
 }
 
 }  // namespace pcl_ecs
