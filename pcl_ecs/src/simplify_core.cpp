@@ -13,7 +13,7 @@
 #include <sstream>
 
 #include <Eigen/Eigenvalues>
-#include <pcl_ecs/search/nanoflann_search.h>
+#include <pcl_ecs/search/box_tree_search.h>
 
 namespace pcl_ecs
 {
@@ -107,7 +107,7 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
   // The one K-neighbourhood query (eq. 1, 2, 3, 7-12 all read it).
   auto t = Clock::now();
   report("neighbours", 0.0);
-  NanoflannSearch tree;
+  BoxTreeSearch tree(false, threads);  // the filter hands the points over in Morton order
   tree.setInputCloud(cloud_ptr);
   NeighborhoodTable table;
   computeNeighborhoods(cloud, tree, k, threads, table);

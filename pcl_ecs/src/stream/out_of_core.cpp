@@ -3,6 +3,7 @@
 
 #include <pcl_ecs/io/pcd_stream.h>
 #include <pcl_ecs/neighborhood.h>
+#include <pcl_ecs/search/box_tree_search.h>
 #include <pcl_ecs/search/nanoflann_search.h>
 #include <pcl_ecs/spatial_order.h>
 #include <pcl_ecs/stages/ball_cover.h>
@@ -865,7 +866,7 @@ void Runner::phaseA(int t)
   const int k = params_.k_neighbors;
   if (n <= static_cast<std::size_t>(k))
     failRun("tile " + std::to_string(t) + " holds only " + std::to_string(n) + " points; K = " + std::to_string(k));
-  NanoflannSearch tree;
+  BoxTreeSearch tree(false, tile_threads_);  // tiles are in Morton order
   tree.setInputCloud(d.cloud);
   NeighborhoodTable table;
   computeNeighborhoods(*d.cloud, tree, k, tile_threads_, table);
@@ -997,7 +998,7 @@ void Runner::phaseB(int t)
   }
   TileData d = loadTile(t);
   const std::vector<std::uint8_t> is_feature = attr.features(delta_);
-  NanoflannSearch tree;
+  BoxTreeSearch tree(false, tile_threads_);  // tiles are in Morton order
   tree.setInputCloud(d.cloud);
   NeighborhoodTable table;
   computeNeighborhoods(*d.cloud, tree, params_.k_neighbors, tile_threads_, table);
@@ -1077,7 +1078,7 @@ void Runner::phaseC(int t)
         pre_covered[i] = 1;
   }
 
-  NanoflannSearch tree;
+  BoxTreeSearch tree(false, tile_threads_);  // tiles are in Morton order
   tree.setInputCloud(d.cloud);
   CoverInput in{*d.cloud,          normals,      weights,     is_feature, curvature, density, mean_abs_h_,
                 mean_spacing_,     neighborhood_radius_, summary_.bbox_diagonal, tree};

@@ -1,0 +1,340 @@
+#include <pcl_ecs/search/box_tree_search.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+namespace pcl_ecs
+{
+
+namespace
+{
+constexpr int kWide = 8;  // children per node
+
+/// The boxes of a node's kWide children, coordinate by coordinate (an empty slot has lo = +inf,
+/// hi = -inf: never within reach), so that a query tests all of them in one vectorised pass.
+struct Node
+{
+  float lo[3][kWide], hi[3][kWide];
+};
+
+/// Squared distances from (x, y, z) to the node's kWide child boxes (0 inside).
+inline void childDistances(const Node& n, float x, float y, float z, float* d)
+{
+  for (int c = 0; c < kWide; ++c)  // vectorises
+  {
+    const float dx = std::max(std::max(n.lo[0][c] - x, x - n.hi[0][c]), 0.f);
+    const float dy = std::max(std::max(n.lo[1][c] - y, y - n.hi[1][c]), 0.f);
+    const float dz = std::max(std::max(n.lo[2][c] - z, z - n.hi[2][c]), 0.f);
+    d[c] = dx * dx + dy * dy + dz * dz;
+  }
+}
+
+/// (squared distance, cloud index) as one integer ordered like the pair (distance >= 0).
+inline std::uint64_t pairKey(float d2, int index)
+{
+  std::uint32_t bits;
+  std::memcpy(&bits, &d2, sizeof bits);
+  return (static_cast<std::uint64_t>(bits) << 32) | static_cast<std::uint32_t>(index);
+}
+
+inline float keyDistance(std::uint64_t key)
+{
+  const auto bits = static_cast<std::uint32_t>(key >> 32);
+  float d2;
+  std::memcpy(&d2, &bits, sizeof d2);
+  return d2;
+}
+
+struct Visit
+{
+  int level;
+  int node;
+  float distance;  // squared distance from the query to the node's box (K-nearest search)
+};
+// Depth-first stacks hold at most (kWide - 1) entries per level plus one; 16 levels of 8-wide
+// nodes over runs of 32 points reach past 2^50 points.
+constexpr int kStack = 16 * kWide;
+}  // namespace
+
+struct BoxTreeSearch::Impl
+{
+  std::size_t count = 0;          // finite points in the tree
+  std::vector<float> x, y, z;     // tree order, padded to whole runs with NaN (never within reach)
+  std::vector<int> to_cloud;      // tree position -> cloud index
+  // levels[0][j] holds the boxes of runs kWide j ... kWide j + kWide - 1; levels[l + 1][j] those
+  // of levels[l][kWide j ...]; the last level is one node (the root's children).
+  std::vector<std::vector<Node>> levels;
+};
+
+BoxTreeSearch::BoxTreeSearch(bool sorted, int threads)
+  : pcl::search::Search<pcl::PointXYZ>("BoxTreeSearch", sorted), impl_(std::make_unique<Impl>()),
+    threads_(threads)
+{
+}
+
+BoxTreeSearch::~BoxTreeSearch() = default;
+
+namespace
+{
+Node emptyNode()
+{
+  Node n;
+  for (int a = 0; a < 3; ++a)
+    for (int c = 0; c < kWide; ++c)
+    {
+      n.lo[a][c] = std::numeric_limits<float>::infinity();
+      n.hi[a][c] = -std::numeric_limits<float>::infinity();
+    }
+  return n;
+}
+}  // namespace
+
+void BoxTreeSearch::setInputCloud(const PointCloudConstPtr& cloud, const IndicesConstPtr& indices)
+{
+  input_ = cloud;
+  indices_ = indices;
+  Impl& t = *impl_;
+  t = Impl{};
+  auto finite = [&](int i) {
+    const pcl::PointXYZ& p = (*cloud)[static_cast<std::size_t>(i)];
+    return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
+  };
+  if (indices)
+  {
+    for (const auto i : *indices)
+      if (finite(i))
+        t.to_cloud.push_back(i);
+  }
+  else
+  {
+    t.to_cloud.reserve(cloud->size());
+    for (std::size_t i = 0; i < cloud->size(); ++i)
+      if (finite(static_cast<int>(i)))
+        t.to_cloud.push_back(static_cast<int>(i));
+  }
+  t.count = t.to_cloud.size();
+  if (t.count == 0)
+    return;
+  const std::size_t runs = (t.count + kRun - 1) / kRun;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  t.x.assign(runs * kRun, nan);
+  t.y.assign(runs * kRun, nan);
+  t.z.assign(runs * kRun, nan);
+  t.levels.emplace_back((runs + kWide - 1) / kWide, emptyNode());
+  const auto run_count = static_cast<std::ptrdiff_t>(runs);
+#ifdef _OPENMP
+  const int threads = threads_ > 0 ? threads_ : omp_get_max_threads();
+#endif
+  // One pass: copy each run's points and take its box (runs are independent).
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (std::ptrdiff_t r = 0; r < run_count; ++r)
+  {
+    const std::size_t b = static_cast<std::size_t>(r) * kRun;
+    const std::size_t e = std::min(b + kRun, t.count);
+    float lo[3], hi[3];
+    for (int a = 0; a < 3; ++a)
+    {
+      lo[a] = std::numeric_limits<float>::infinity();
+      hi[a] = -std::numeric_limits<float>::infinity();
+    }
+    for (std::size_t j = b; j < e; ++j)
+    {
+      const pcl::PointXYZ& p = (*cloud)[static_cast<std::size_t>(t.to_cloud[j])];
+      t.x[j] = p.x;
+      t.y[j] = p.y;
+      t.z[j] = p.z;
+      const float c[3] = {p.x, p.y, p.z};
+      for (int a = 0; a < 3; ++a)
+      {
+        lo[a] = std::min(lo[a], c[a]);
+        hi[a] = std::max(hi[a], c[a]);
+      }
+    }
+    Node& node = t.levels[0][static_cast<std::size_t>(r) / kWide];
+    for (int a = 0; a < 3; ++a)
+    {
+      node.lo[a][r % kWide] = lo[a];
+      node.hi[a][r % kWide] = hi[a];
+    }
+  }
+  // Nodes of boxes up to the root (kWide times fewer each level: cheap, sequential).
+  while (t.levels.back().size() > 1)
+  {
+    const std::vector<Node>& below = t.levels.back();
+    std::vector<Node> above((below.size() + kWide - 1) / kWide, emptyNode());
+    for (std::size_t j = 0; j < below.size(); ++j)
+    {
+      Node& n = above[j / kWide];
+      for (int a = 0; a < 3; ++a)
+      {
+        float lo = n.lo[a][j % kWide], hi = n.hi[a][j % kWide];
+        for (int c = 0; c < kWide; ++c)
+        {
+          lo = std::min(lo, below[j].lo[a][c]);
+          hi = std::max(hi, below[j].hi[a][c]);
+        }
+        n.lo[a][j % kWide] = lo;
+        n.hi[a][j % kWide] = hi;
+      }
+    }
+    t.levels.push_back(std::move(above));
+  }
+}
+
+int BoxTreeSearch::radiusSearch(const pcl::PointXYZ& point, double radius, pcl::Indices& k_indices,
+                                std::vector<float>& k_sqr_distances, unsigned int max_nn) const
+{
+  k_indices.clear();
+  k_sqr_distances.clear();
+  const Impl& t = *impl_;
+  if (t.count == 0 || !(radius >= 0.0) || !std::isfinite(point.x) || !std::isfinite(point.y) ||
+      !std::isfinite(point.z))
+    return 0;
+  const float r2 = static_cast<float>(radius * radius);
+  const float px = point.x, py = point.y, pz = point.z;
+  Visit stack[kStack];
+  int top = 0;
+  stack[top++] = {static_cast<int>(t.levels.size()) - 1, 0, 0.f};
+  float d[kWide];
+  while (top > 0)
+  {
+    const Visit v = stack[--top];
+    childDistances(t.levels[static_cast<std::size_t>(v.level)][static_cast<std::size_t>(v.node)], px, py, pz, d);
+    if (v.level > 0)
+    {
+      // Children pushed last to first: they come out (and their points) in tree order.
+      for (int c = kWide; c-- > 0;)
+        if (d[c] <= r2)
+          stack[top++] = {v.level - 1, v.node * kWide + c, 0.f};
+      continue;
+    }
+    for (int c = 0; c < kWide; ++c)
+    {
+      if (!(d[c] <= r2))
+        continue;
+      const std::size_t b = (static_cast<std::size_t>(v.node) * kWide + static_cast<std::size_t>(c)) * kRun;
+      float d2[kRun];
+      for (int j = 0; j < kRun; ++j)  // vectorises (padding is NaN: never <= r2)
+      {
+        const float dx = px - t.x[b + j], dy = py - t.y[b + j], dz = pz - t.z[b + j];
+        d2[j] = dx * dx + dy * dy + dz * dz;
+      }
+      for (int j = 0; j < kRun; ++j)
+        if (d2[j] <= r2)
+        {
+          k_indices.push_back(t.to_cloud[b + j]);
+          k_sqr_distances.push_back(d2[j]);
+        }
+    }
+  }
+  if (sorted_results_ || max_nn > 0)
+  {
+    thread_local std::vector<std::uint64_t> keys;
+    keys.resize(k_indices.size());
+    for (std::size_t i = 0; i < keys.size(); ++i)
+      keys[i] = pairKey(k_sqr_distances[i], k_indices[i]);
+    std::sort(keys.begin(), keys.end());
+    if (max_nn > 0 && keys.size() > max_nn)
+      keys.resize(max_nn);
+    k_indices.resize(keys.size());
+    k_sqr_distances.resize(keys.size());
+    for (std::size_t i = 0; i < keys.size(); ++i)
+    {
+      k_indices[i] = static_cast<int>(static_cast<std::uint32_t>(keys[i]));
+      k_sqr_distances[i] = keyDistance(keys[i]);
+    }
+  }
+  return static_cast<int>(k_indices.size());
+}
+
+int BoxTreeSearch::nearestKSearch(const pcl::PointXYZ& point, int k, pcl::Indices& k_indices,
+                                  std::vector<float>& k_sqr_distances) const
+{
+  k_indices.clear();
+  k_sqr_distances.clear();
+  const Impl& t = *impl_;
+  if (t.count == 0 || k <= 0 || !std::isfinite(point.x) || !std::isfinite(point.y) ||
+      !std::isfinite(point.z))
+    return 0;
+  const std::size_t want = std::min<std::size_t>(static_cast<std::size_t>(k), t.count);
+  const float px = point.x, py = point.y, pz = point.z;
+  // Max-heap of the best keys so far. A box is skipped only when it is strictly farther than the
+  // worst kept distance, so every point tied at that distance is seen: exact by key.
+  thread_local std::vector<std::uint64_t> heap;
+  heap.clear();
+  auto worst = [&] {
+    return heap.size() < want ? std::numeric_limits<float>::infinity() : keyDistance(heap.front());
+  };
+  auto offer = [&](std::uint64_t key) {
+    if (heap.size() < want)
+    {
+      heap.push_back(key);
+      std::push_heap(heap.begin(), heap.end());
+    }
+    else if (key < heap.front())
+    {
+      std::pop_heap(heap.begin(), heap.end());
+      heap.back() = key;
+      std::push_heap(heap.begin(), heap.end());
+    }
+  };
+  Visit stack[kStack];
+  int top = 0;
+  stack[top++] = {static_cast<int>(t.levels.size()) - 1, 0, 0.f};
+  float d[kWide];
+  int order[kWide];
+  while (top > 0)
+  {
+    const Visit v = stack[--top];
+    if (v.distance > worst())
+      continue;
+    childDistances(t.levels[static_cast<std::size_t>(v.level)][static_cast<std::size_t>(v.node)], px, py, pz, d);
+    // The children within reach, nearest first (ties by position: deterministic).
+    int m = 0;
+    for (int c = 0; c < kWide; ++c)
+    {
+      if (!(d[c] <= worst()))
+        continue;
+      int i = m++;
+      for (; i > 0 && d[order[i - 1]] > d[c]; --i)
+        order[i] = order[i - 1];
+      order[i] = c;
+    }
+    if (v.level > 0)
+    {
+      for (int i = m; i-- > 0;)  // the nearest is pushed last: popped first
+        stack[top++] = {v.level - 1, v.node * kWide + order[i], d[order[i]]};
+      continue;
+    }
+    for (int i = 0; i < m; ++i)
+    {
+      if (d[order[i]] > worst())
+        break;
+      const std::size_t b = (static_cast<std::size_t>(v.node) * kWide + static_cast<std::size_t>(order[i])) * kRun;
+      const std::size_t e = std::min(b + kRun, t.count);
+      for (std::size_t j = b; j < e; ++j)
+      {
+        const float dx = px - t.x[j], dy = py - t.y[j], dz = pz - t.z[j];
+        offer(pairKey(dx * dx + dy * dy + dz * dz, t.to_cloud[j]));
+      }
+    }
+  }
+  std::sort_heap(heap.begin(), heap.end());
+  k_indices.resize(heap.size());
+  k_sqr_distances.resize(heap.size());
+  for (std::size_t i = 0; i < heap.size(); ++i)
+  {
+    k_indices[i] = static_cast<int>(static_cast<std::uint32_t>(heap[i]));
+    k_sqr_distances[i] = keyDistance(heap[i]);
+  }
+  return static_cast<int>(heap.size());
+}
+
+}  // namespace pcl_ecs
