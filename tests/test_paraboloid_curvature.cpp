@@ -127,3 +127,20 @@ TEST(ParaboloidCurvature, LeastSquaresMatchesAReferenceSolver)
     }
   }
 }
+
+// Neighbours along one line of the tangent plane: x², xy and y² are then proportional, the fit
+// has no unique answer, and both solvers (the normal equations, then the QR) must see it.
+TEST(ParaboloidCurvature, CollinearNeighboursGiveZero)
+{
+  const Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d u, v;
+  pcl_ecs::tangentFrame(normal, u, v);
+  std::vector<Eigen::Vector3d> pts;
+  for (int i = -8; i <= 8; ++i)
+  {
+    const double x = 0.01 * i, y = 0.5 * x;
+    pts.push_back(x * u + y * v + 3.0 * x * x * normal);
+  }
+  for (const auto fit : {pcl_ecs::ParaboloidFit::Literal, pcl_ecs::ParaboloidFit::Tilted})
+    EXPECT_EQ(pcl_ecs::paraboloidMeanCurvature(Eigen::Vector3d::Zero(), normal, pts, fit), 0.0);
+}

@@ -79,6 +79,63 @@ bool householderLeastSquares(double (*a)[256], double* z, int rows, int cols, do
   }
   return true;
 }
+
+/// Least squares min |A x - z| by the normal equations AᵀA x = Aᵀz and a Cholesky factorisation:
+/// a third of the work of the QR. Returns false (and leaves the fit to the QR) unless every
+/// pivot is at least 1e-10 of the largest diagonal entry of AᵀA, i.e. A's columns are far from
+/// dependent (condition number below ~1e5): there the normal equations lose at most ~1e-6 of
+/// the curvature's relative accuracy, and near-degenerate neighbourhoods get the QR's rank test.
+bool normalEquations(const double (*a)[256], const double* z, int rows, int cols, double* x)
+{
+  double m[5][5] = {}, r[5] = {};
+  for (int i = 0; i < rows; ++i)
+    for (int p = 0; p < cols; ++p)
+    {
+      const double ap = a[p][i];
+      r[p] += ap * z[i];
+      for (int q = 0; q <= p; ++q)
+        m[p][q] += ap * a[q][i];
+    }
+  double largest = 0.0;
+  for (int p = 0; p < cols; ++p)
+    largest = std::max(largest, m[p][p]);
+  if (!(largest > 0.0))
+    return false;
+  // Cholesky m = L Lᵀ in place (lower triangle).
+  for (int j = 0; j < cols; ++j)
+  {
+    double d = m[j][j];
+    for (int k = 0; k < j; ++k)
+      d -= m[j][k] * m[j][k];
+    if (!(d >= 1e-10 * largest))
+      return false;
+    const double l = std::sqrt(d);
+    m[j][j] = l;
+    for (int i = j + 1; i < cols; ++i)
+    {
+      double s = m[i][j];
+      for (int k = 0; k < j; ++k)
+        s -= m[i][k] * m[j][k];
+      m[i][j] = s / l;
+    }
+  }
+  // L y = r, then Lᵀ x = y.
+  for (int i = 0; i < cols; ++i)
+  {
+    double s = r[i];
+    for (int k = 0; k < i; ++k)
+      s -= m[i][k] * r[k];
+    r[i] = s / m[i][i];
+  }
+  for (int i = cols - 1; i >= 0; --i)
+  {
+    double s = r[i];
+    for (int k = i + 1; k < cols; ++k)
+      s -= m[k][i] * x[k];
+    x[i] = s / m[i][i];
+  }
+  return true;
+}
 }  // namespace
 
 double paraboloidMeanCurvature(const Eigen::Vector3d& centre, const Eigen::Vector3d& normal,
@@ -117,7 +174,8 @@ double paraboloidMeanCurvature(const Eigen::Vector3d& centre, const Eigen::Vecto
   if (rows < cols)
     return 0.0;
   double coef[5];
-  if (!householderLeastSquares(a, z, rows, cols, coef))  // eq. 9
+  if (!normalEquations(a, z, rows, cols, coef) &&            // eq. 9, well conditioned: fast
+      !householderLeastSquares(a, z, rows, cols, coef))  // otherwise: stable, with a rank test
     return 0.0;
   const double ca = coef[0], cb = coef[1], cc = coef[2];
   if (cols == 3)

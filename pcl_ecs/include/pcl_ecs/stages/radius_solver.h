@@ -55,6 +55,9 @@ struct RadiusEvaluation
  * (before the kernel weight): precomputed once per radius query, read by every E(r). */
 struct CandidatePlane
 {
+  /// Left uninitialised (candidatePlanes writes every field): growing the per-thread vector of
+  /// planes from ball to ball does not zero memory that is overwritten at once.
+  CandidatePlane() {}  // NOLINT(modernize-use-equals-default): = default would value-initialise
   double distance;  ///< |p_j - c|
   /// a_j × (n n^T: xx, xy, xz, yy, yz, zz; d n: x, y, z; d²; 1), d = n_j · (p_j - c), a_j eq. 1
   double terms[12];  // the last is padding (0): whole SIMD pairs
