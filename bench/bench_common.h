@@ -71,6 +71,21 @@ inline Measure runChild(const std::vector<std::string>& input_args, const std::s
   return m;
 }
 
+/// The best of `repeat` runs in fresh processes (the least time; the largest peak memory): this
+/// machine's speed moves by 10-15% from minute to minute, the least time is the repeatable one.
+inline Measure bestOfChildren(int repeat, const std::vector<std::string>& input_args, const std::string& method,
+                              double param, const std::string& extra = "")
+{
+  Measure best = runChild(input_args, method, param, extra);
+  for (int r = 1; r < repeat; ++r)
+  {
+    const Measure m = runChild(input_args, method, param, extra);
+    best.seconds = std::min(best.seconds, m.seconds);
+    best.peak_extra_mib = std::max(best.peak_extra_mib, m.peak_extra_mib);
+  }
+  return best;
+}
+
 /// Geometric bisection of a monotone-decreasing size(param) for the target (within 1%).
 template <typename F>
 double searchParameter(double lo, double hi, std::size_t target, F size_of, int iterations = 40)

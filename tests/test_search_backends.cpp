@@ -118,7 +118,7 @@ TEST(BoxTreeSearch, KNearestTiesKeepTheSmallestIndices)
   for (int q : {0, 31, 465, 899})
   {
     const auto truth = bruteForce(*cloud, (*cloud)[static_cast<std::size_t>(q)], nullptr);
-    for (int k : {1, 3, 5, 7, 9, 13})
+    for (int k : {1, 3, 5, 7, 9, 13, 100, 300})  // up to 64 a sorted array keeps them, beyond a heap
     {
       ASSERT_EQ(search.nearestKSearch((*cloud)[static_cast<std::size_t>(q)], k, idx, d2), k);
       for (int j = 0; j < k; ++j)
@@ -190,6 +190,8 @@ TEST(BoxTreeSearch, EmptyAndDegenerateInputs)
   ASSERT_EQ(search.nearestKSearch(toPoint({1, 2, 3}), 5, idx, d2), 5);
   EXPECT_EQ(idx, (pcl::Indices{0, 1, 2, 3, 4}));  // all tied: the smallest indices
   EXPECT_EQ(search.nearestKSearch(toPoint({1, 2, 3}), 100, idx, d2), 40);
+  // A radius whose square overflows a float reaches everything (and no empty slot of the tree).
+  EXPECT_EQ(search.radiusSearch(toPoint({0, 0, 0}), 1e30, idx, d2), 40);
   pcl::PointXYZ nan_query = toPoint({0, 0, 0});
   nan_query.x = std::numeric_limits<float>::quiet_NaN();
   EXPECT_EQ(search.radiusSearch(nan_query, 1.0, idx, d2), 0);

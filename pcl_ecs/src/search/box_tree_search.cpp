@@ -77,6 +77,9 @@ inline float keyDistance(std::uint64_t key)
   return d2;
 }
 
+/// The distance of an empty child slot (its box is lo = +inf, hi = -inf); real boxes are finite.
+constexpr float kEmpty = std::numeric_limits<float>::infinity();
+
 struct Visit
 {
   int level;
@@ -237,13 +240,13 @@ int BoxTreeSearch::radiusSearch(const pcl::PointXYZ& point, double radius, pcl::
     {
       // Children pushed last to first: they come out (and their points) in tree order.
       for (int c = kWide; c-- > 0;)
-        if (d[c] <= r2)
+        if (d[c] <= r2 && d[c] < kEmpty)
           stack[top++] = {v.level - 1, v.node * kWide + c, 0.f};
       continue;
     }
     for (int c = 0; c < kWide; ++c)
     {
-      if (!(d[c] <= r2))
+      if (!(d[c] <= r2 && d[c] < kEmpty))
         continue;
       const std::size_t b = (static_cast<std::size_t>(v.node) * kWide + static_cast<std::size_t>(c)) * kRun;
       float d2[kRun];
@@ -297,76 +300,93 @@ int BoxTreeSearch::nearestKSearch(const pcl::PointXYZ& point, int k, pcl::Indice
     return 0;
   const std::size_t want = std::min<std::size_t>(static_cast<std::size_t>(k), t.count);
   const float px = point.x, py = point.y, pz = point.z;
-  // Max-heap of the best keys so far. A box is skipped only when it is strictly farther than the
-  // worst kept distance, so every point tied at that distance is seen: exact by key.
-  thread_local std::vector<std::uint64_t> heap;
-  heap.clear();
+  // The best keys so far: a sorted array for the usual small k (an insertion is a short shift),
+  // a max-heap for large k. A box is skipped only when it is strictly farther than the worst
+  // kept distance, so every point tied at that distance is seen: exact by key.
+  thread_local std::vector<std::uint64_t> best;
+  best.clear();
+  const bool small = want <= 64;
   auto worst = [&] {
-    return heap.size() < want ? std::numeric_limits<float>::infinity() : keyDistance(heap.front());
+    if (best.size() < want)
+      return std::numeric_limits<float>::infinity();
+    return keyDistance(small ? best.back() : best.front());
   };
   auto offer = [&](std::uint64_t key) {
-    if (heap.size() < want)
+    if (small)
     {
-      heap.push_back(key);
-      std::push_heap(heap.begin(), heap.end());
+      if (best.size() == want)
+      {
+        if (!(key < best.back()))
+          return;
+        best.pop_back();
+      }
+      best.push_back(key);
+      for (std::size_t i = best.size() - 1; i > 0 && best[i - 1] > key; --i)
+        std::swap(best[i - 1], best[i]);
     }
-    else if (key < heap.front())
+    else if (best.size() < want)
     {
-      std::pop_heap(heap.begin(), heap.end());
-      heap.back() = key;
-      std::push_heap(heap.begin(), heap.end());
+      best.push_back(key);
+      std::push_heap(best.begin(), best.end());
+    }
+    else if (key < best.front())
+    {
+      std::pop_heap(best.begin(), best.end());
+      best.back() = key;
+      std::push_heap(best.begin(), best.end());
     }
   };
-  Visit stack[kStack];
-  int top = 0;
-  stack[top++] = {static_cast<int>(t.levels.size()) - 1, 0, 0.f};
+  // Best first: boxes in order of their distance from the query (a min-heap, ties by level and
+  // node: deterministic); the search ends when the nearest unseen box is farther than the worst kept.
+  thread_local std::vector<Visit> queue;
+  queue.clear();
+  auto farther = [](const Visit& a, const Visit& b) {
+    return a.distance > b.distance ||
+           (a.distance == b.distance && (a.level > b.level || (a.level == b.level && a.node > b.node)));
+  };
+  queue.push_back({static_cast<int>(t.levels.size()) - 1, 0, 0.f});
   float d[kWide];
-  int order[kWide];
-  while (top > 0)
+  while (!queue.empty())
   {
-    const Visit v = stack[--top];
+    std::pop_heap(queue.begin(), queue.end(), farther);
+    const Visit v = queue.back();
+    queue.pop_back();
     if (v.distance > worst())
-      continue;
-    childDistances(t.levels[static_cast<std::size_t>(v.level)][static_cast<std::size_t>(v.node)], px, py, pz, d);
-    // The children within reach, nearest first (ties by position: deterministic).
-    int m = 0;
-    for (int c = 0; c < kWide; ++c)
+      break;
+    if (v.level < 0)
     {
-      if (!(d[c] <= worst()))
-        continue;
-      int i = m++;
-      for (; i > 0 && d[order[i - 1]] > d[c]; --i)
-        order[i] = order[i - 1];
-      order[i] = c;
-    }
-    if (v.level > 0)
-    {
-      for (int i = m; i-- > 0;)  // the nearest is pushed last: popped first
-        stack[top++] = {v.level - 1, v.node * kWide + order[i], d[order[i]]};
-      continue;
-    }
-    for (int i = 0; i < m; ++i)
-    {
-      if (d[order[i]] > worst())
-        break;
-      const std::size_t b = (static_cast<std::size_t>(v.node) * kWide + static_cast<std::size_t>(order[i])) * kRun;
-      const std::size_t e = std::min(b + kRun, t.count);
-      for (std::size_t j = b; j < e; ++j)
+      // A run: its points, distances first (vectorised; padding is NaN, never offered).
+      const std::size_t b = static_cast<std::size_t>(v.node) * kRun;
+      float d2[kRun];
+      for (int j = 0; j < kRun; ++j)
       {
-        const float dx = px - t.x[j], dy = py - t.y[j], dz = pz - t.z[j];
-        offer(pairKey(dx * dx + dy * dy + dz * dz, t.to_cloud[j]));
+        const float dx = px - t.x[b + j], dy = py - t.y[b + j], dz = pz - t.z[b + j];
+        d2[j] = dx * dx + dy * dy + dz * dz;
       }
+      for (int j = 0; j < kRun; ++j)
+        if (d2[j] <= worst())
+          offer(pairKey(d2[j], t.to_cloud[b + j]));
+      continue;
     }
+    childDistances(t.levels[static_cast<std::size_t>(v.level)][static_cast<std::size_t>(v.node)], px, py, pz, d);
+    for (int c = 0; c < kWide; ++c)
+      if (d[c] <= worst() && d[c] < kEmpty)
+      {
+        // Level -1 stands for the runs below level 0.
+        queue.push_back({v.level - 1, v.node * kWide + c, d[c]});
+        std::push_heap(queue.begin(), queue.end(), farther);
+      }
   }
-  std::sort_heap(heap.begin(), heap.end());
-  k_indices.resize(heap.size());
-  k_sqr_distances.resize(heap.size());
-  for (std::size_t i = 0; i < heap.size(); ++i)
+  if (!small)
+    std::sort_heap(best.begin(), best.end());
+  k_indices.resize(best.size());
+  k_sqr_distances.resize(best.size());
+  for (std::size_t i = 0; i < best.size(); ++i)
   {
-    k_indices[i] = static_cast<int>(static_cast<std::uint32_t>(heap[i]));
-    k_sqr_distances[i] = keyDistance(heap[i]);
+    k_indices[i] = static_cast<int>(static_cast<std::uint32_t>(best[i]));
+    k_sqr_distances[i] = keyDistance(best[i]);
   }
-  return static_cast<int>(heap.size());
+  return static_cast<int>(best.size());
 }
 
 }  // namespace pcl_ecs
