@@ -781,7 +781,15 @@ TileData Runner::loadTile(int t) const
   const std::size_t n = nc + nh;
   // Sorted by Morton code in the global box, ties by input index: the same order for a point
   // whichever tile loads it, so neighbour ties break the same way everywhere.
-  std::vector<std::uint64_t> code(n), gid(n);
+  // (code, input index, position in the files) sorted by value: the keys are distinct (input
+  // indices are), so any sort gives the same order; sorting the keys themselves rather than
+  // indices into them keeps the comparisons in cache.
+  struct Key
+  {
+    std::uint64_t code, gid;
+    std::uint32_t at;
+  };
+  std::vector<Key> keys(n);
   std::vector<Eigen::Vector3d> pos(n);
   auto at = [&](std::size_t i) -> const std::uint8_t* {
     return i < nc ? core.data() + i * (8 + step) : halo.data() + (i - nc) * (16 + step);
@@ -789,15 +797,14 @@ TileData Runner::loadTile(int t) const
   for (std::size_t i = 0; i < n; ++i)
   {
     const std::uint8_t* r = at(i);
-    std::memcpy(&gid[i], r, 8);
+    std::uint64_t gid;
+    std::memcpy(&gid, r, 8);
     const std::uint8_t* rec = r + (i < nc ? 8 : 16);
     xyz.get(rec, pos[i].x(), pos[i].y(), pos[i].z());
-    code[i] = mortonCode(pos[i], plan_.lo, plan_.hi);
+    keys[i] = {mortonCode(pos[i], plan_.lo, plan_.hi), gid, static_cast<std::uint32_t>(i)};
   }
-  std::vector<std::uint32_t> perm(n);
-  std::iota(perm.begin(), perm.end(), 0u);
-  std::sort(perm.begin(), perm.end(), [&](std::uint32_t a, std::uint32_t b) {
-    return code[a] < code[b] || (code[a] == code[b] && gid[a] < gid[b]);
+  std::sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) {
+    return a.code < b.code || (a.code == b.code && a.gid < b.gid);
   });
   TileData d;
   d.cloud->resize(n);
@@ -809,10 +816,10 @@ TileData Runner::loadTile(int t) const
   const Eigen::Vector3d origin = plan_.origin();
   for (std::size_t o = 0; o < n; ++o)
   {
-    const std::size_t i = perm[o];
+    const std::size_t i = keys[o].at;
     const std::uint8_t* r = at(i);
     (*d.cloud)[o].getVector3fMap() = (pos[i] - origin).cast<float>();
-    d.gid[o] = gid[i];
+    d.gid[o] = keys[o].gid;
     d.is_core[o] = i < nc;
     if (i < nc)
     {
