@@ -1,9 +1,10 @@
 #include <pcl_ecs/neighborhood.h>
 
+#include "pair_key.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <utility>
 
 namespace pcl_ecs
@@ -27,22 +28,6 @@ void storeRow(std::vector<Pair>& row, int k, std::ptrdiff_t i, NeighborhoodTable
     out_i[j] = row[static_cast<std::size_t>(j)].second;
     out_d[j] = row[static_cast<std::size_t>(j)].first;
   }
-}
-
-/// (squared distance, index) as one integer that orders like the pair (distance >= 0, index >= 0).
-inline std::uint64_t pairKey(float d2, int index)
-{
-  std::uint32_t bits;
-  std::memcpy(&bits, &d2, sizeof bits);
-  return (static_cast<std::uint64_t>(bits) << 32) | static_cast<std::uint32_t>(index);
-}
-
-inline float keyDistance(std::uint64_t key)
-{
-  const auto bits = static_cast<std::uint32_t>(key >> 32);
-  float d2;
-  std::memcpy(&d2, &bits, sizeof d2);
-  return d2;
 }
 
 /// Work space of one thread.
@@ -243,13 +228,7 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
     w.kth.push_back(std::sqrt(kth));
     prev = i;
     prev_kth = std::sqrt(kth);
-    int* out_i = table.indices.data() + i * k;
-    float* out_d = table.sqr_distances.data() + i * k;
-    for (std::size_t j = 0; j < ku; ++j)
-    {
-      out_i[j] = static_cast<int>(static_cast<std::uint32_t>(keys[j]));
-      out_d[j] = keyDistance(keys[j]);
-    }
+    unpackKeys(keys, ku, table.indices.data() + i * k, table.sqr_distances.data() + i * k);
   }
   learnMargin(w);
 }

@@ -1,9 +1,12 @@
 #include <pcl_ecs/search/box_tree_search.h>
 
+#include "../pair_key.h"
+
+#include <pcl/common/point_tests.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <limits>
 
 #ifdef _OPENMP
@@ -61,22 +64,6 @@ inline void childDistances(const Node& n, float x, float y, float z, float* d)
 #endif
 }
 
-/// (squared distance, cloud index) as one integer ordered like the pair (distance >= 0).
-inline std::uint64_t pairKey(float d2, int index)
-{
-  std::uint32_t bits;
-  std::memcpy(&bits, &d2, sizeof bits);
-  return (static_cast<std::uint64_t>(bits) << 32) | static_cast<std::uint32_t>(index);
-}
-
-inline float keyDistance(std::uint64_t key)
-{
-  const auto bits = static_cast<std::uint32_t>(key >> 32);
-  float d2;
-  std::memcpy(&d2, &bits, sizeof d2);
-  return d2;
-}
-
 /// The distance of an empty child slot (its box is lo = +inf, hi = -inf); real boxes are finite.
 constexpr float kEmpty = std::numeric_limits<float>::infinity();
 
@@ -130,10 +117,7 @@ void BoxTreeSearch::setInputCloud(const PointCloudConstPtr& cloud, const Indices
   indices_ = indices;
   Impl& t = *impl_;
   t = Impl{};
-  auto finite = [&](int i) {
-    const pcl::PointXYZ& p = (*cloud)[static_cast<std::size_t>(i)];
-    return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
-  };
+  auto finite = [&](int i) { return pcl::isFinite((*cloud)[static_cast<std::size_t>(i)]); };
   if (indices)
   {
     for (const auto i : *indices)
@@ -223,8 +207,7 @@ int BoxTreeSearch::radiusSearch(const pcl::PointXYZ& point, double radius, pcl::
   k_indices.clear();
   k_sqr_distances.clear();
   const Impl& t = *impl_;
-  if (t.count == 0 || !(radius >= 0.0) || !std::isfinite(point.x) || !std::isfinite(point.y) ||
-      !std::isfinite(point.z))
+  if (t.count == 0 || !(radius >= 0.0) || !pcl::isFinite(point))
     return 0;
   const float r2 = static_cast<float>(radius * radius);
   const float px = point.x, py = point.y, pz = point.z;
@@ -280,11 +263,7 @@ int BoxTreeSearch::radiusSearch(const pcl::PointXYZ& point, double radius, pcl::
       keys.resize(max_nn);
     k_indices.resize(keys.size());
     k_sqr_distances.resize(keys.size());
-    for (std::size_t i = 0; i < keys.size(); ++i)
-    {
-      k_indices[i] = static_cast<int>(static_cast<std::uint32_t>(keys[i]));
-      k_sqr_distances[i] = keyDistance(keys[i]);
-    }
+    unpackKeys(keys.data(), keys.size(), k_indices.data(), k_sqr_distances.data());
   }
   return static_cast<int>(k_indices.size());
 }
@@ -295,8 +274,7 @@ int BoxTreeSearch::nearestKSearch(const pcl::PointXYZ& point, int k, pcl::Indice
   k_indices.clear();
   k_sqr_distances.clear();
   const Impl& t = *impl_;
-  if (t.count == 0 || k <= 0 || !std::isfinite(point.x) || !std::isfinite(point.y) ||
-      !std::isfinite(point.z))
+  if (t.count == 0 || k <= 0 || !pcl::isFinite(point))
     return 0;
   const std::size_t want = std::min<std::size_t>(static_cast<std::size_t>(k), t.count);
   const float px = point.x, py = point.y, pz = point.z;
@@ -381,11 +359,7 @@ int BoxTreeSearch::nearestKSearch(const pcl::PointXYZ& point, int k, pcl::Indice
     std::sort_heap(best.begin(), best.end());
   k_indices.resize(best.size());
   k_sqr_distances.resize(best.size());
-  for (std::size_t i = 0; i < best.size(); ++i)
-  {
-    k_indices[i] = static_cast<int>(static_cast<std::uint32_t>(best[i]));
-    k_sqr_distances[i] = keyDistance(best[i]);
-  }
+  unpackKeys(best.data(), best.size(), k_indices.data(), k_sqr_distances.data());
   return static_cast<int>(best.size());
 }
 

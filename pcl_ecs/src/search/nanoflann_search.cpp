@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include <nanoflann.hpp>
+#include <pcl/common/point_tests.h>
 
 namespace pcl_ecs
 {
@@ -49,7 +50,7 @@ void NanoflannSearch::setInputCloud(const PointCloudConstPtr& cloud, const Indic
   impl_->to_cloud.clear();
   auto add = [&](int i) {
     const pcl::PointXYZ& p = (*cloud)[static_cast<std::size_t>(i)];
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+    if (!pcl::isFinite(p))
       return;
     impl_->points.xyz.insert(impl_->points.xyz.end(), {p.x, p.y, p.z});
     impl_->to_cloud.push_back(i);
