@@ -156,6 +156,48 @@ TEST(TilePlan, PartitionsThePlaneIntoTilesOfBoundedCount)
   EXPECT_EQ(planTiles(four, 4).size(), 1u);
 }
 
+TEST(TilePlan, CountsTheHaloTowardsTheBoundAndSplitsOnlyWhereItIsWide)
+{
+  // Uniform points on a 100 × 30 strip, plus a dense band along y = 15 that fattens the halo of
+  // the tiles next to it.
+  std::mt19937 rng(2);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<std::array<double, 2>> pts;
+  for (int i = 0; i < 20000; ++i)
+    pts.push_back({u(rng) * 100.0, u(rng) * 30.0});
+  for (int i = 0; i < 6000; ++i)
+    pts.push_back({u(rng) * 100.0, 15.0 + 0.2 * u(rng)});
+  const double halo = 1.5;
+  const std::size_t bound = 2000;
+  const auto tiles = planTiles(pts, bound, halo);
+  const auto bare = planTiles(pts, bound);
+  EXPECT_GT(tiles.size(), bare.size()) << "the halo must count towards the bound";
+  std::size_t smallest = bound, total_core = 0;
+  for (const Tile& t : tiles)
+  {
+    std::size_t core = 0, near = 0;
+    for (const auto& p : pts)
+    {
+      if (p[0] >= t.lo[0] && p[0] < t.hi[0] && p[1] >= t.lo[1] && p[1] < t.hi[1])
+        ++core;
+      else
+      {
+        const double du = std::max({t.lo[0] - p[0], 0.0, p[0] - t.hi[0]});
+        const double dv = std::max({t.lo[1] - p[1], 0.0, p[1] - t.hi[1]});
+        near += du * du + dv * dv <= halo * halo ? 1 : 0;
+      }
+    }
+    EXPECT_EQ(t.core_points, core);
+    EXPECT_EQ(t.halo_points, near);
+    EXPECT_LE(core + near, bound);
+    smallest = std::min(smallest, core + near);
+    total_core += core;
+  }
+  EXPECT_EQ(total_core, pts.size());
+  // Even tiles: none far below the bound (a global shrink for the band's tiles would halve them all).
+  EXPECT_GE(smallest, bound / 3);
+}
+
 TEST(TilePlan, ColoursKeepCloseTilesApart)
 {
   // A 4 × 4 grid of unit tiles.

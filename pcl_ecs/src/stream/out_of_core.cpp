@@ -119,6 +119,14 @@ struct KdNode
   int tile = -1;
 };
 
+/// Squared distance in the plane from p to the rectangle [lo, hi] (0 inside; bounds may be infinite).
+double rectDistance2(const std::array<double, 2>& p, const std::array<double, 2>& lo, const std::array<double, 2>& hi)
+{
+  const double du = std::max({lo[0] - p[0], 0.0, p[0] - hi[0]});
+  const double dv = std::max({lo[1] - p[1], 0.0, p[1] - hi[1]});
+  return du * du + dv * dv;
+}
+
 struct TileTree
 {
   std::vector<KdNode> nodes;
@@ -141,9 +149,7 @@ struct TileTree
     if (k.axis < 0)
     {
       const Tile& t = tiles[static_cast<std::size_t>(k.tile)];
-      const double du = std::max({t.lo[0] - p[0], 0.0, p[0] - t.hi[0]});
-      const double dv = std::max({t.lo[1] - p[1], 0.0, p[1] - t.hi[1]});
-      if (du * du + dv * dv <= h * h)
+      if (rectDistance2(p, t.lo, t.hi) <= h * h)
         out.push_back(k.tile);
       return;
     }
@@ -155,18 +161,27 @@ struct TileTree
   }
 };
 
-TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::size_t max_per_tile)
+/// Recursive splits of the sample until every tile holds at most `max_core` samples and its load,
+/// its samples plus those within `halo` of its rectangle, is at most `max_load` (halo 0: its own
+/// samples only). A part is split across its longer side at the m/2 : m - m/2 quantile of its own
+/// samples, m the larger of its count / max_core and load / max_load rounded up: the tiles come out
+/// even, and a part whose halo is large (a thin part, a dense neighbour) is split further on its own
+/// instead of shrinking every tile.
+TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::size_t max_core, std::size_t max_load,
+                       double halo)
 {
   TileTree tree;
   const double inf = std::numeric_limits<double>::infinity();
+  const double h2 = halo * halo;
   std::vector<std::uint32_t> ids(sample.size());
   std::iota(ids.begin(), ids.end(), 0u);
   struct Job
   {
     int node;
     std::size_t begin, end;
-    std::array<double, 2> lo, hi;    // the rectangle (may be infinite)
-    std::array<double, 2> slo, shi;  // the samples' extent, to choose the split axis
+    std::array<double, 2> lo, hi;        // the rectangle (may be infinite)
+    std::array<double, 2> slo, shi;      // the samples' extent, to choose the split axis
+    std::vector<std::uint32_t> reach;    // halo > 0: the samples outside the part within halo of it
   };
   auto extent = [&](std::size_t b, std::size_t e, std::array<double, 2>& lo, std::array<double, 2>& hi) {
     lo = {inf, inf};
@@ -178,19 +193,33 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
         hi[a] = std::max(hi[a], sample[ids[i]][a]);
       }
   };
+  // The halo samples of a child: the parent's halo samples and the sibling's own ones within reach.
+  auto reachOf = [&](const Job& child, const Job& parent, std::size_t sib_begin, std::size_t sib_end) {
+    std::vector<std::uint32_t> r;
+    if (!(halo > 0.0))
+      return r;
+    for (const std::uint32_t i : parent.reach)
+      if (rectDistance2(sample[i], child.lo, child.hi) <= h2)
+        r.push_back(i);
+    for (std::size_t k = sib_begin; k < sib_end; ++k)
+      if (rectDistance2(sample[ids[k]], child.lo, child.hi) <= h2)
+        r.push_back(ids[k]);
+    return r;
+  };
   tree.nodes.push_back({});
   std::vector<Job> jobs;
-  Job root{0, 0, ids.size(), {-inf, -inf}, {inf, inf}, {}, {}};
+  Job root{0, 0, ids.size(), {-inf, -inf}, {inf, inf}, {}, {}, {}};
   extent(0, ids.size(), root.slo, root.shi);
-  jobs.push_back(root);
+  jobs.push_back(std::move(root));
   // Depth-first, left before right: tiles are numbered in a deterministic, spatially coherent order.
   while (!jobs.empty())
   {
-    Job j = jobs.back();
+    Job j = std::move(jobs.back());
     jobs.pop_back();
     const std::size_t count = j.end - j.begin;
+    const std::size_t load = count + j.reach.size();
     const int axis = (j.shi[1] - j.slo[1]) > (j.shi[0] - j.slo[0]) ? 1 : 0;
-    bool split = count > max_per_tile && count >= 2 && j.shi[static_cast<std::size_t>(axis)] > j.slo[static_cast<std::size_t>(axis)];
+    bool split = (count > max_core || load > max_load) && count >= 2 && j.shi[static_cast<std::size_t>(axis)] > j.slo[static_cast<std::size_t>(axis)];
     double value = 0.0;
     std::size_t mid = 0;
     if (split)
@@ -203,7 +232,8 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
       });
       // Split into the fewest tiles that respect the bound, as evenly as possible: a tile count m
       // splits m / 2 : m - m / 2 (not always in halves, which would leave tiles at half the bound).
-      const std::size_t m = (count + max_per_tile - 1) / max_per_tile;
+      const std::size_t m = std::max<std::size_t>(
+          {2, (count + max_core - 1) / max_core, (load + max_load - 1) / max_load});
       mid = j.begin + count * (m / 2) / m;
       value = sample[ids[mid]][a];
       // Everything below `value` goes left: move mid to the first sample at value.
@@ -228,6 +258,8 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
       Tile t;
       t.lo = j.lo;
       t.hi = j.hi;
+      t.core_points = count;
+      t.halo_points = j.reach.size();
       tree.tiles.push_back(t);
       continue;
     }
@@ -238,14 +270,16 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
     tree.nodes.push_back({});
     tree.nodes.push_back({});
     const std::size_t a = static_cast<std::size_t>(axis);
-    Job left{tree.nodes[static_cast<std::size_t>(j.node)].left, j.begin, mid, j.lo, j.hi, {}, {}};
-    Job right{tree.nodes[static_cast<std::size_t>(j.node)].right, mid, j.end, j.lo, j.hi, {}, {}};
+    Job left{tree.nodes[static_cast<std::size_t>(j.node)].left, j.begin, mid, j.lo, j.hi, {}, {}, {}};
+    Job right{tree.nodes[static_cast<std::size_t>(j.node)].right, mid, j.end, j.lo, j.hi, {}, {}, {}};
     left.hi[a] = value;
     right.lo[a] = value;
     extent(left.begin, left.end, left.slo, left.shi);
     extent(right.begin, right.end, right.slo, right.shi);
-    jobs.push_back(right);
-    jobs.push_back(left);
+    left.reach = reachOf(left, j, mid, j.end);
+    right.reach = reachOf(right, j, j.begin, mid);
+    jobs.push_back(std::move(right));
+    jobs.push_back(std::move(left));
   }
   return tree;
 }
@@ -626,33 +660,30 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
   std::vector<std::array<double, 2>> sample2(sample.size());
   for (std::size_t i = 0; i < sample.size(); ++i)
     sample2[i] = {sample[i][plan_.axis_u], sample[i][plan_.axis_v]};
+  // Tiles of even size whose load (core + halo) is close to the budget: a first tree with a core
+  // of 0.8 × the budget gives the typical halo share (the median of load / core over its tiles);
+  // the second has cores of 0.95 × the budget over that share, and any tile whose halo still
+  // makes it too large (thin tiles, dense neighbours) is split further on its own. The peak memory
+  // (two tiles near the budget) then follows the limit, not the input's size or shape.
   const double per_sample = 1.0 / fraction;
-  double core_target = static_cast<double>(plan_.tile_point_budget) * 0.8;
-  for (int attempt = 0;; ++attempt)
+  const double max_load = 0.97 * static_cast<double>(plan_.tile_point_budget) / per_sample;
+  auto samples = [](double n) { return std::max<std::size_t>(1, static_cast<std::size_t>(n)); };
+  plan_.tree = buildTileTree(sample2, samples(0.8 * max_load), samples(max_load), plan_.halo);
+  std::vector<double> share;
+  for (const Tile& t : plan_.tree.tiles)
+    if (t.core_points > 0)
+      share.push_back(static_cast<double>(t.core_points + t.halo_points) / static_cast<double>(t.core_points));
+  if (!share.empty())
   {
-    const std::size_t max_samples = std::max<std::size_t>(1, static_cast<std::size_t>(core_target / per_sample));
-    plan_.tree = buildTileTree(sample2, max_samples);
-    // Estimated core + halo points of every tile.
-    std::vector<double> load(plan_.tree.tiles.size(), 0.0);
-    std::vector<int> near;
-    const std::size_t every = std::max<std::size_t>(1, sample2.size() / 250000);
-    for (std::size_t i = 0; i < sample2.size(); i += every)
-    {
-      near.clear();
-      plan_.tree.near(sample2[i], plan_.halo, near);
-      for (int t : near)
-        load[static_cast<std::size_t>(t)] += per_sample * static_cast<double>(every);
-    }
-    const double worst = *std::max_element(load.begin(), load.end());
-    if (worst <= static_cast<double>(plan_.tile_point_budget) || attempt == 24 || max_samples <= 1)
-    {
-      if (worst > static_cast<double>(plan_.tile_point_budget))
-        report("warning: the halo is wide for this memory limit; tiles may exceed it");
-      break;
-    }
-    // Shrink just enough (the halo shrinks with the tile less than the core does: small steps).
-    core_target *= std::min(0.97, 0.99 * static_cast<double>(plan_.tile_point_budget) / worst);
+    std::nth_element(share.begin(), share.begin() + static_cast<std::ptrdiff_t>(share.size() / 2), share.end());
+    const double typical = std::max(1.0, share[share.size() / 2]);
+    plan_.tree = buildTileTree(sample2, samples(0.95 * max_load / typical), samples(max_load), plan_.halo);
   }
+  double worst = 0.0;
+  for (const Tile& t : plan_.tree.tiles)
+    worst = std::max(worst, per_sample * static_cast<double>(t.core_points + t.halo_points));
+  if (worst > static_cast<double>(plan_.tile_point_budget))
+    report("warning: the halo is wide for this memory limit; tiles may exceed it");
   summary_.stage_seconds[0] = secondsSince(t0);
   std::ostringstream os;
   os << "plan: " << finite << " finite points, " << plan_.tree.tiles.size() << " tile(s) of at most "
@@ -1437,9 +1468,10 @@ std::uint64_t physicalMemory()
   return pages > 0 && page > 0 ? static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page) : 0;
 }
 
-std::vector<Tile> planTiles(const std::vector<std::array<double, 2>>& sample, std::size_t max_per_tile)
+std::vector<Tile> planTiles(const std::vector<std::array<double, 2>>& sample, std::size_t max_per_tile, double halo)
 {
-  return buildTileTree(sample, std::max<std::size_t>(1, max_per_tile)).tiles;
+  const std::size_t bound = std::max<std::size_t>(1, max_per_tile);
+  return buildTileTree(sample, bound, bound, halo).tiles;
 }
 
 double tileDistance(const Tile& a, const Tile& b)

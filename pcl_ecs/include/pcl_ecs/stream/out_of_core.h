@@ -102,10 +102,12 @@ bool parseByteSize(const std::string& text, std::uint64_t& bytes);
 std::uint64_t physicalMemory();
 
 /** \brief Split the 2D sample points into the fewest tiles of at most `max_per_tile` samples each,
- * as even as possible, by recursive splits of the longer side (a part that needs m tiles is split
- * m/2 : m - m/2; deterministic; ties by position in the list).
- * The outer tiles reach to infinity. */
-std::vector<Tile> planTiles(const std::vector<std::array<double, 2>>& sample, std::size_t max_per_tile);
+ * counting with a tile's own samples those within `halo` of its rectangle, as even as possible, by
+ * recursive splits of the longer side (a part that needs m tiles is split m/2 : m - m/2;
+ * deterministic; ties by position in the list). The outer tiles reach to infinity; each tile's
+ * core_points and halo_points are its sample counts. */
+std::vector<Tile> planTiles(const std::vector<std::array<double, 2>>& sample, std::size_t max_per_tile,
+                            double halo = 0.0);
 
 /** \brief Distance between two tiles' rectangles (0 when they touch). */
 double tileDistance(const Tile& a, const Tile& b);
