@@ -436,6 +436,50 @@ TEST(Filter, TargetCapFollowsTheTargetAndFallsBackNearTheInputSize)
   }
 }
 
+namespace
+{
+/// Largest distance from a point of `cloud` to its nearest point of `out`.
+double coverageMax(const Cloud::Ptr& cloud, const Cloud& out)
+{
+  pcl::search::KdTree<pcl::PointXYZ> tree;
+  tree.setInputCloud(out.makeShared());
+  pcl::Indices idx;
+  std::vector<float> d2;
+  double worst = 0.0;
+  for (const auto& p : *cloud)
+    if (tree.nearestKSearch(p, 1, idx, d2) == 1)
+      worst = std::max(worst, std::sqrt(static_cast<double>(d2[0])));
+  return worst;
+}
+}  // namespace
+
+// The gap bound (gap_fill.h): no input point farther than max_gap from the output, in the T_err
+// mode and in the target-size mode (whose search keeps the size within 1%); off, the paper's cover
+// leaves points farther than that.
+TEST(Filter, NoPointFartherThanTheGapFromTheOutput)
+{
+  auto cloud = loadShared("bunny.pcd");
+  for (const std::size_t target : {std::size_t{0}, cloud->size() / 10})
+  {
+    Filter f;
+    f.setTargetSize(target);
+    const Cloud out = run(cloud, f);
+    const auto& s = f.getResult().summary;
+    ASSERT_GT(s.max_gap, 0.0);
+    EXPECT_GT(s.gap_points, 0u) << "the bound must be exercised";
+    EXPECT_LE(coverageMax(cloud, out), s.max_gap * (1.0 + 1e-6)) << "target " << target;
+    if (target > 0)
+      EXPECT_NEAR(static_cast<double>(out.size()), static_cast<double>(target), 0.01 * target);
+
+    Filter off;
+    off.setTargetSize(target);
+    off.setMaxGapFactor(0.0);
+    const Cloud paper = run(cloud, off);
+    EXPECT_EQ(off.getResult().summary.gap_points, 0u);
+    EXPECT_GT(coverageMax(cloud, paper), s.max_gap) << "target " << target;
+  }
+}
+
 TEST(Filter, FeatureRepresentativeLabelsAndUtmCoordinates)
 {
   auto cloud = loadShared("terrain_csite1_utm.pcd");

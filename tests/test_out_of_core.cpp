@@ -227,6 +227,7 @@ TEST_F(OutOfCore, MatchesTheInMemoryFilter)
   const auto original = loadXyz(path("scan.pcd"));
   Parameters params;
   params.error_threshold = 1e-3;
+  params.max_gap_factor = 0.0;  // the out-of-core path runs the cover without the gap bound
   // The in-memory filter with three seeds: the seed alone moves the size by ~1% and the surface
   // deviation by up to ~5% on this scan (the ridge decides it), so the streamed run is held to the
   // seeds' range widened by the tolerance, and the size and coverage to 1% and 3%.
@@ -317,6 +318,7 @@ TEST_F(OutOfCore, ManyFeaturesTakeTheSearchPathAndKeepTheStatistics)
   const auto original = loadXyz(path("scan.pcd"));
   Parameters params;
   params.feature_factor = 0.6;
+  params.max_gap_factor = 0.0;  // the out-of-core path runs the cover without the gap bound
   FeatureAwareCoverSimplify<pcl::PointXYZ> filter;
   filter.setParameters(params);
   filter.setInputCloud(original.makeShared());
@@ -337,6 +339,7 @@ TEST_F(OutOfCore, NoSeamsAtTileBorders)
   // places (density varies across this scan, so the band is compared with itself, not with the
   // rest): as many output points, the same coverage distance, no near-duplicates from two tiles.
   Parameters params;
+  params.max_gap_factor = 0.0;  // the out-of-core path runs the cover without the gap bound
   const StreamOptions opt = tiled("scratch-seams", 4);
   const StreamSummary s = simplifyOutOfCore(path("scan.pcd"), path("seams.pcd"), params, opt);
   ASSERT_GE(s.tiles.size(), 4u);

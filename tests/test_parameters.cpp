@@ -22,6 +22,10 @@ TEST(Parameters, DefaultsAreValidAndDocumented)
   EXPECT_FALSE(p.use_input_normals);
   EXPECT_EQ(p.threads, 0);
   EXPECT_EQ(p.target_size, 0u);
+  EXPECT_DOUBLE_EQ(p.max_gap_factor, 0.6);
+  Parameters off = p;
+  off.max_gap_factor = 0.0;  // off is valid
+  EXPECT_EQ(pcl_ecs::validate(off), "");
 }
 
 TEST(Parameters, EachBadValueIsRefusedByName)
@@ -47,6 +51,9 @@ TEST(Parameters, EachBadValueIsRefusedByName)
       {[](Parameters& p) { p.adaptive_factor = std::numeric_limits<double>::quiet_NaN(); }, "adaptive_factor"},
       {[](Parameters& p) { p.radius_cap_factor = 0.0; }, "radius_cap_factor"},
       {[](Parameters& p) { p.radius_cap_factor = 1e6; }, "radius_cap_factor"},
+      {[](Parameters& p) { p.max_gap_factor = -0.1; }, "max_gap_factor"},
+      {[](Parameters& p) { p.max_gap_factor = 101.0; }, "max_gap_factor"},
+      {[](Parameters& p) { p.max_gap_factor = std::numeric_limits<double>::quiet_NaN(); }, "max_gap_factor"},
       {[](Parameters& p) { p.threads = -1; }, "threads"},
   };
   (void)nan;

@@ -55,7 +55,8 @@ Scans larger than memory (PCD in, binary PCD out; docs/STREAMING.md):
                       Progress on stderr. Killed? Run the same command again: it resumes from
                       the finished tiles. Takes --terr (not a target size); all fields of the
                       input are kept. Output depends on --memory-limit (the tiling), not on
-                      --threads.
+                      --threads. The gap bound (--max-gap) is not applied out of core yet: the
+                      tiles run the paper's cover, as in memory with --max-gap 0.
   --memory-limit SIZE memory budget, e.g. 512M, 2G (default: a quarter of the RAM, >= 256M)
   --scratch DIR       scratch directory (default OUTPUT.ecs-scratch); needs about 150 bytes
                       per input point plus 2.3 × the input's size free (50M points use
@@ -363,6 +364,7 @@ nlohmann::json statsJson(const Options& o, const RunOutput& run, const pcl::PCLP
                      {"radius_cap_factor", p.radius_cap_factor},
                      {"target_radius_cap", p.target_radius_cap},
                      {"max_representative_offset", p.max_representative_offset},
+                     {"max_gap_factor", p.max_gap_factor},
                      {"radius_cap_factor_used", s.radius_cap_factor},
                      {"seed", p.seed},
                      {"threads", p.threads},
@@ -375,6 +377,7 @@ nlohmann::json statsJson(const Options& o, const RunOutput& run, const pcl::PCLP
                  {"balls", s.balls},
                  {"output_points", s.output_points},
                  {"centre_fallbacks", s.centre_fallbacks},
+                 {"gap_points", s.gap_points},
                  {"target_iterations", s.target_iterations}};
   j["geometry"] = {{"bbox_diagonal", s.bbox_diagonal},
                    {"feature_threshold", s.feature_threshold},

@@ -3,6 +3,7 @@
 #include <pcl_ecs/neighborhood.h>
 #include <pcl_ecs/stages/density_weights.h>
 #include <pcl_ecs/stages/feature_measure.h>
+#include <pcl_ecs/stages/gap_fill.h>
 #include <pcl_ecs/stages/local_density.h>
 #include <pcl_ecs/stages/normals.h>
 #include <pcl_ecs/stages/paraboloid_curvature.h>
@@ -45,10 +46,12 @@ bool collinear(const LocalCloud& cloud)
   return !(ev(1) > 1e-12 * ev(2));
 }
 
-/// The cover at one T_err; the output size is features + balls.
-std::size_t runCover(const CoverInput& in, const Parameters& params, double terr, CoverOutput& out)
+/// The cover at one T_err, then the gaps wider than `gap` closed; the output size is features + balls.
+std::size_t runCover(const CoverInput& in, const Parameters& params, double terr, double gap, CoverOutput& out,
+                     std::size_t& gap_points)
 {
   coverWithBalls(in, params, terr, out);
+  gap_points = fillGaps(in, params, terr, gap, out);
   return out.balls.size();
 }
 }  // namespace
@@ -178,7 +181,8 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
   {
     s.error_threshold = params.error_threshold;
     s.radius_cap_factor = params.radius_cap_factor;
-    runCover(in, params, s.error_threshold, out.cover);
+    s.max_gap = params.max_gap_factor * params.radius_cap_factor * s.neighborhood_radius;
+    runCover(in, params, s.error_threshold, s.max_gap, out.cover, s.gap_points);
     s.target_iterations = 1;
   }
   else
@@ -195,19 +199,31 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
       cover_params.radius_cap_factor = std::min(1000.0, std::max(1e-3, params.target_radius_cap * implied));
     }
     s.radius_cap_factor = cover_params.radius_cap_factor;
+    // The gap bound, in neighbourhood radii: max_gap_factor × the cap the target implies.
+    double gap_factor = params.max_gap_factor * cover_params.radius_cap_factor;
     auto distance = [&](std::size_t balls) {
       return std::abs(static_cast<double>(s.feature_points + balls) - target);
     };
     double best_distance = std::numeric_limits<double>::infinity();
     CoverOutput trial;
+    // The fewest balls the current search reached, and how many of them closed gaps.
+    std::size_t fewest = std::numeric_limits<std::size_t>::max(), fewest_gaps = 0;
     auto attempt = [&](double terr) {
-      const std::size_t balls = runCover(in, cover_params, terr, trial);
+      std::size_t gaps = 0;
+      const std::size_t balls = runCover(in, cover_params, terr, gap_factor * s.neighborhood_radius, trial, gaps);
       ++s.target_iterations;
+      if (balls < fewest)
+      {
+        fewest = balls;
+        fewest_gaps = gaps;
+      }
       report("cover", std::min(1.0, s.target_iterations / 40.0));
       if (distance(balls) < best_distance)
       {
         best_distance = distance(balls);
         s.error_threshold = terr;
+        s.gap_points = gaps;
+        s.max_gap = gap_factor * s.neighborhood_radius;
         std::swap(out.cover, trial);
       }
       return static_cast<double>(balls);
@@ -219,7 +235,10 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
     // by 4× means the radius cap (or the point count), not T, sets it: this cap cannot do better.
     auto search = [&]() {
       const double before = best_distance;
-      double lo = std::min(std::max(params.error_threshold, lowest), highest);  // T giving too many
+      fewest = std::numeric_limits<std::size_t>::max();
+      // The first search starts at the user's T_err, a later one (wider gap or cap) at the best so far.
+      const double start = std::isfinite(best_distance) ? s.error_threshold : params.error_threshold;
+      double lo = std::min(std::max(start, lowest), highest);  // T giving too many
       double hi = lo;                                                           // T giving too few
       double b_lo = attempt(lo), b_hi = b_lo;
       if (std::abs(b_lo - balls_wanted) <= tol)
@@ -283,11 +302,26 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
       return best_distance < before;
     };
     search();
-    while (best_distance > tol && cover_params.radius_cap_factor < params.radius_cap_factor)
+    while (best_distance > tol)
     {
-      // The target cap was too tight to reach the size (targets close to the input size): widen it
-      // step by step up to the plain cap, keeping the closest result.
-      cover_params.radius_cap_factor = std::min(params.radius_cap_factor, 1.5 * cover_params.radius_cap_factor);
+      // The size is out of reach: T_err cannot remove the points that the cap or the gap bound
+      // forces. When the gap points alone exceed the excess, widen the gap bound (×1.1, up to the
+      // cap); otherwise the cap (×1.5, targets close to the input size) up to the plain cap, the
+      // gap bound following it. The closest result is kept.
+      const bool gaps_bind = fewest != std::numeric_limits<std::size_t>::max() &&
+                             static_cast<double>(fewest) > balls_wanted &&
+                             static_cast<double>(fewest_gaps) >= static_cast<double>(fewest) - balls_wanted;
+      if (gap_factor > 0.0 && gap_factor < cover_params.radius_cap_factor &&
+          (gaps_bind || !(cover_params.radius_cap_factor < params.radius_cap_factor)))
+        gap_factor = std::min(cover_params.radius_cap_factor, 1.1 * gap_factor);
+      else if (cover_params.radius_cap_factor < params.radius_cap_factor)
+      {
+        cover_params.radius_cap_factor = std::min(params.radius_cap_factor, 1.5 * cover_params.radius_cap_factor);
+        if (gap_factor > 0.0)
+          gap_factor = std::max(gap_factor, params.max_gap_factor * cover_params.radius_cap_factor);
+      }
+      else
+        break;
       if (search())
         s.radius_cap_factor = cover_params.radius_cap_factor;
     }

@@ -71,6 +71,8 @@ bool applyFilterFlag(const std::string& flag, const std::function<std::string()>
     p.radius_cap_factor = parseDoubleFlag(flag, value());
   else if (flag == "--rep-offset")
     p.max_representative_offset = parseDoubleFlag(flag, value());
+  else if (flag == "--max-gap")
+    p.max_gap_factor = parseDoubleFlag(flag, value());
   else if (flag == "--target-cap")
     p.target_radius_cap = parseDoubleFlag(flag, value());
   else if (flag == "--seed")
@@ -112,6 +114,9 @@ std::string filterFlagsHelp()
      << "                      (default " << d.radius_cap_factor << ")\n"
      << "  --rep-offset F      the optimised point stands for its ball when within F × r of the centre,\n"
      << "                      else the centre; the paper's rule is 1; in (0, 1] (default " << d.max_representative_offset << ")\n"
+     << "  --max-gap G         no input point farther than G × the radius cap from the output: points\n"
+     << "                      left farther become output points; 0 = off (the paper's method);\n"
+     << "                      0 or in (0, 100] (default " << d.max_gap_factor << ")\n"
      << "  --seed S            seed of the centre order (default " << d.seed
      << "); same seed, same output\n"
      << "  --threads N         worker threads, 0 = all (default 0); the output does not depend on it\n"

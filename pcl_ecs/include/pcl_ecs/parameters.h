@@ -80,6 +80,15 @@ struct Parameters
    * fandisk, the surface deviation too (docs/RESULTS.md). */
   double max_representative_offset = 0.5;
 
+  /** \brief After the cover, every point farther than this many times the radius cap from every
+   * output point becomes an output point of its own (gap_fill.h), greedily, so that no input point
+   * is farther than max_gap_factor × cap from the output. In target-size mode the cap is the one
+   * the target implies (target_radius_cap), and the bound is widened in ×1.2 steps up to the cap
+   * when the size cannot be reached with it. 0 turns it off (the paper's method). Range: 0 or
+   * (0, 100]. Default 0.6: the coverage max of the output drops by a fifth to a half where
+   * large balls meet (flat regions, scan borders) at the same output size (docs/RESULTS.md). */
+  double max_gap_factor = 0.6;
+
   /** \brief Seed of the order in which ball centres are picked (step 3). Same seed, same input,
    * same parameters: the same output bit for bit, whatever the thread count. */
   std::uint64_t seed = 42;

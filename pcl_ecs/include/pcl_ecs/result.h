@@ -56,6 +56,8 @@ struct Summary
   std::size_t balls = 0;             ///< n, the number of representatives
   std::size_t output_points = 0;     ///< m + n
   std::size_t centre_fallbacks = 0;  ///< balls whose representative is their centre
+  std::size_t gap_points = 0;        ///< of the balls, those of radius 0 added to close gaps (gap_fill.h)
+  double max_gap = 0;                ///< the gap bound used (input units; 0: off)
   double feature_threshold = 0;      ///< δ of eq. 4 (input units)
   double mean_spacing = 0;           ///< mean of eq. 5 (input units)
   double neighborhood_radius = 0;    ///< mean of sqrt(a_i) (eq. 1): the radius cap's unit

@@ -1,0 +1,25 @@
+// gap_fill.h — after the cover (ball_cover.h): no input point farther than a bound from the output.
+// The paper adapts T_err so that no holes appear; a ball's representative may still sit up to
+// r + |x_min - c| from the rim of its ball, and where large balls meet (flat regions, the edge of a
+// scan) the distance from a point to the nearest output point can reach 1.5 × the radius cap.
+// fillGaps bounds it: every non-feature point farther than `gap` from every output point (feature
+// points and ball representatives) becomes an output point of its own, a ball of radius 0 centred
+// on it, greedily in cloud order (each added point may close the gaps around it). Afterwards every
+// covered point lies within `gap` of an output point.
+#pragma once
+
+#include <pcl_ecs/parameters.h>
+#include <pcl_ecs/stages/ball_cover.h>
+
+namespace pcl_ecs
+{
+
+/** \brief Add radius-0 balls until every point covered by `out` lies within `gap` of an output
+ * point (a feature point of `in` or a representative of `out`); the added balls take over their
+ * point from its previous ball (owner and `replaced` updated). `gap` <= 0 does nothing. The tolerance
+ * of an added ball is the one its centre would get (error_threshold adapted as in the cover).
+ * Deterministic: the result does not depend on params.threads. Returns the number of balls added. */
+std::size_t fillGaps(const CoverInput& in, const Parameters& params, double error_threshold, double gap,
+                     CoverOutput& out);
+
+}  // namespace pcl_ecs
