@@ -93,16 +93,19 @@ Cloud fromCgal(const std::vector<K::Point_3>& v)
 }
 
 /// One method at one parameter; `target` is for the methods that take a count.
-Cloud runMethod(const std::string& m, const Cloud::Ptr& in, double param, std::size_t target, double cap = 0)
+Cloud runMethod(const std::string& m, const Cloud::Ptr& in, double param, std::size_t target, double cap = 0,
+                double gap = -1)
 {
   Cloud out;
   if (m == "pcl_ecs")
   {
-    // The T_err and radius cap that the target-size search found (in the parent, untimed).
+    // The T_err, radius cap and gap bound that the target-size search found (in the parent, untimed).
     pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> f;
     f.setErrorThreshold(param);
     if (cap > 0)
       f.setRadiusCapFactor(cap);
+    if (gap >= 0)
+      f.setMaxGapFactor(gap);
     f.setInputCloud(in);
     f.filter(out);
   }
@@ -200,7 +203,7 @@ int main(int argc, char** argv)
 {
   std::string data = "../shared/data", out_path = "peers.json", workdir = "/tmp/pcl_ecs_peers", input, write;
   std::string child;
-  double param = 0, cap = 0;
+  double param = 0, cap = 0, gap = -1;
   std::size_t target = 0;
   std::vector<double> ratios = {0.10, 0.03};
   std::vector<std::string> only, methods = kMethods;
@@ -246,6 +249,8 @@ int main(int argc, char** argv)
       write = next();
     else if (a == "--cap")
       cap = std::stod(next());
+    else if (a == "--gap")
+      gap = std::stod(next());
     else
     {
       std::fprintf(stderr, "bench_peers: unknown argument %s\n", a.c_str());
@@ -259,7 +264,7 @@ int main(int argc, char** argv)
     pcl::io::loadPCDFile(input, *in);
     Cloud out;
     const Measure m = measureHere([&] {
-      out = runMethod(child, in, param, target, cap);
+      out = runMethod(child, in, param, target, cap, gap);
       return out.size();
     });
     if (!write.empty() && !out.empty())
@@ -322,7 +327,7 @@ int main(int argc, char** argv)
           continue;
         }
         // The parameter for the size (untimed, in this process).
-        double p = 0, cap_used = 0;
+        double p = 0, cap_used = 0, gap_used = -1;
         if (m == "pcl_ecs")
         {
           pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> f;
@@ -331,7 +336,10 @@ int main(int argc, char** argv)
           Cloud tmp;
           f.filter(tmp);
           p = f.getResult().summary.error_threshold;
-          cap_used = f.getResult().summary.radius_cap_factor;
+          const auto& s = f.getResult().summary;
+          cap_used = s.radius_cap_factor;
+          // The gap bound as a factor of that cap (the search may have widened it).
+          gap_used = s.max_gap > 0 ? s.max_gap / (s.radius_cap_factor * s.neighborhood_radius) : 0.0;
         }
         else if (m == "voxel_grid" || m == "uniform_sampling" || m == "cgal_grid")
           p = searchParameter(L * 1e-5, L * 0.5, want, [&](double x) { return runMethod(m, cloud, x, want).size(); });
@@ -344,10 +352,14 @@ int main(int argc, char** argv)
         extra << " --write '" << out_file << "'";
         if (cap_used > 0)
           extra << " --cap " << cap_used;
+        if (gap_used >= 0)
+          extra << " --gap " << gap_used;
         Measure meas;
         nlohmann::json j = {{"method", m}, {"label", label(m)}, {"parameter", p}};
         if (cap_used > 0)
           j["radius_cap_factor"] = cap_used;
+        if (gap_used >= 0)
+          j["max_gap_factor"] = gap_used;
         try
         {
           meas = runChild({"--input", finite_path, "--target", std::to_string(want)}, m, p, extra.str());

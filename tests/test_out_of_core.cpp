@@ -227,7 +227,7 @@ TEST_F(OutOfCore, MatchesTheInMemoryFilter)
   const auto original = loadXyz(path("scan.pcd"));
   Parameters params;
   params.error_threshold = 1e-3;
-  params.max_gap_factor = 0.0;  // the out-of-core path runs the cover without the gap bound
+  params.max_gap_factor = 0.6;  // tighter than the default: thousands of gap points, many at borders
   // The in-memory filter with three seeds: the seed alone moves the size by ~1% and the surface
   // deviation by up to ~5% on this scan (the ridge decides it), so the streamed run is held to the
   // seeds' range widened by the tolerance, and the size and coverage to 1% and 3%.
@@ -299,6 +299,10 @@ TEST_F(OutOfCore, MatchesTheInMemoryFilter)
   within("surface RMS", qs.surface_rms, [](const Run& r) { return r.q.surface_rms; }, 0.03, true);
   within("surface p99", qs.surface_p99, [](const Run& r) { return r.q.surface_p99; }, 0.10, false);
   within("coverage max", qs.coverage_max, [](const Run& r) { return r.q.coverage_max; }, 0.10, false);
+  // The gap bound holds across tiles (phase D): no input point farther than it from the output.
+  EXPECT_GT(s.gap_points, 0u);
+  const double gap = params.max_gap_factor * params.radius_cap_factor * s.neighborhood_radius;
+  EXPECT_LE(qs.coverage_max * s.bbox_diagonal, gap * (1.0 + 1e-5));
   // With one tile the run is the in-memory one, point for point.
   opt.max_tile_points = 0;
   opt.memory_limit = 4ull << 30;
@@ -318,7 +322,6 @@ TEST_F(OutOfCore, ManyFeaturesTakeTheSearchPathAndKeepTheStatistics)
   const auto original = loadXyz(path("scan.pcd"));
   Parameters params;
   params.feature_factor = 0.6;
-  params.max_gap_factor = 0.0;  // the out-of-core path runs the cover without the gap bound
   FeatureAwareCoverSimplify<pcl::PointXYZ> filter;
   filter.setParameters(params);
   filter.setInputCloud(original.makeShared());
@@ -339,7 +342,6 @@ TEST_F(OutOfCore, NoSeamsAtTileBorders)
   // places (density varies across this scan, so the band is compared with itself, not with the
   // rest): as many output points, the same coverage distance, no near-duplicates from two tiles.
   Parameters params;
-  params.max_gap_factor = 0.0;  // the out-of-core path runs the cover without the gap bound
   const StreamOptions opt = tiled("scratch-seams", 4);
   const StreamSummary s = simplifyOutOfCore(path("scan.pcd"), path("seams.pcd"), params, opt);
   ASSERT_GE(s.tiles.size(), 4u);

@@ -22,9 +22,11 @@ TEST(Parameters, DefaultsAreValidAndDocumented)
   EXPECT_FALSE(p.use_input_normals);
   EXPECT_EQ(p.threads, 0);
   EXPECT_EQ(p.target_size, 0u);
-  EXPECT_DOUBLE_EQ(p.max_gap_factor, 0.6);
+  EXPECT_DOUBLE_EQ(p.max_gap_factor, 1.0);
+  EXPECT_DOUBLE_EQ(p.target_gap_factor, 0.6);
   Parameters off = p;
   off.max_gap_factor = 0.0;  // off is valid
+  off.target_gap_factor = 0.0;
   EXPECT_EQ(pcl_ecs::validate(off), "");
 }
 
@@ -54,6 +56,8 @@ TEST(Parameters, EachBadValueIsRefusedByName)
       {[](Parameters& p) { p.max_gap_factor = -0.1; }, "max_gap_factor"},
       {[](Parameters& p) { p.max_gap_factor = 101.0; }, "max_gap_factor"},
       {[](Parameters& p) { p.max_gap_factor = std::numeric_limits<double>::quiet_NaN(); }, "max_gap_factor"},
+      {[](Parameters& p) { p.target_gap_factor = -1.0; }, "target_gap_factor"},
+      {[](Parameters& p) { p.target_gap_factor = 1e9; }, "target_gap_factor"},
       {[](Parameters& p) { p.threads = -1; }, "threads"},
   };
   (void)nan;

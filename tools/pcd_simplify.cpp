@@ -365,6 +365,7 @@ nlohmann::json statsJson(const Options& o, const RunOutput& run, const pcl::PCLP
                      {"target_radius_cap", p.target_radius_cap},
                      {"max_representative_offset", p.max_representative_offset},
                      {"max_gap_factor", p.max_gap_factor},
+                     {"target_gap_factor", p.target_gap_factor},
                      {"radius_cap_factor_used", s.radius_cap_factor},
                      {"seed", p.seed},
                      {"threads", p.threads},

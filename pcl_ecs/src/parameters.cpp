@@ -58,6 +58,8 @@ std::string validate(const Parameters& p)
     return bad("max_representative_offset", p.max_representative_offset, "in (0, 1]");
   if (!(std::isfinite(p.max_gap_factor) && p.max_gap_factor >= 0.0 && p.max_gap_factor <= 100.0))
     return bad("max_gap_factor", p.max_gap_factor, "0 (off) or in (0, 100]");
+  if (!(std::isfinite(p.target_gap_factor) && p.target_gap_factor >= 0.0 && p.target_gap_factor <= 100.0))
+    return bad("target_gap_factor", p.target_gap_factor, "0 (off) or in (0, 100]");
   if (p.threads < 0 || p.threads > 1024)
     return bad("threads", p.threads, "an integer in [0, 1024] (0 = all hardware threads)");
   if (p.error_form != ErrorForm::Normalized && p.error_form != ErrorForm::Paper)

@@ -199,8 +199,9 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
       cover_params.radius_cap_factor = std::min(1000.0, std::max(1e-3, params.target_radius_cap * implied));
     }
     s.radius_cap_factor = cover_params.radius_cap_factor;
-    // The gap bound, in neighbourhood radii: max_gap_factor × the cap the target implies.
-    double gap_factor = params.max_gap_factor * cover_params.radius_cap_factor;
+    // The gap bound, in neighbourhood radii: target_gap_factor × the cap the target implies.
+    const double gap_ratio = params.target_radius_cap > 0.0 ? params.target_gap_factor : params.max_gap_factor;
+    double gap_factor = gap_ratio * cover_params.radius_cap_factor;
     auto distance = [&](std::size_t balls) {
       return std::abs(static_cast<double>(s.feature_points + balls) - target);
     };
@@ -318,7 +319,7 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
       {
         cover_params.radius_cap_factor = std::min(params.radius_cap_factor, 1.5 * cover_params.radius_cap_factor);
         if (gap_factor > 0.0)
-          gap_factor = std::max(gap_factor, params.max_gap_factor * cover_params.radius_cap_factor);
+          gap_factor = std::max(gap_factor, gap_ratio * cover_params.radius_cap_factor);
       }
       else
         break;

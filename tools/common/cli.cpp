@@ -73,6 +73,8 @@ bool applyFilterFlag(const std::string& flag, const std::function<std::string()>
     p.max_representative_offset = parseDoubleFlag(flag, value());
   else if (flag == "--max-gap")
     p.max_gap_factor = parseDoubleFlag(flag, value());
+  else if (flag == "--target-gap")
+    p.target_gap_factor = parseDoubleFlag(flag, value());
   else if (flag == "--target-cap")
     p.target_radius_cap = parseDoubleFlag(flag, value());
   else if (flag == "--seed")
@@ -117,6 +119,8 @@ std::string filterFlagsHelp()
      << "  --max-gap G         no input point farther than G × the radius cap from the output: points\n"
      << "                      left farther become output points; 0 = off (the paper's method);\n"
      << "                      0 or in (0, 100] (default " << d.max_gap_factor << ")\n"
+     << "  --target-gap G      the same with a target size, × the cap the target implies (default "
+     << d.target_gap_factor << ")\n"
      << "  --seed S            seed of the centre order (default " << d.seed
      << "); same seed, same output\n"
      << "  --threads N         worker threads, 0 = all (default 0); the output does not depend on it\n"

@@ -79,9 +79,11 @@ public:
   void setMaxRepresentativeOffset(double fraction) { params_.max_representative_offset = fraction; }
   double getMaxRepresentativeOffset() const { return params_.max_representative_offset; }
   /** \brief No input point farther than factor × the radius cap from the output; 0 = off (see
-   * Parameters::max_gap_factor). */
+   * Parameters::max_gap_factor; target-size mode: setTargetGapFactor). */
   void setMaxGapFactor(double factor) { params_.max_gap_factor = factor; }
   double getMaxGapFactor() const { return params_.max_gap_factor; }
+  void setTargetGapFactor(double factor) { params_.target_gap_factor = factor; }
+  double getTargetGapFactor() const { return params_.target_gap_factor; }
   /** \brief With a target size: radius cap = factor × the spacing the target implies (0: use the
    * radius cap factor). */
   void setTargetRadiusCap(double factor) { params_.target_radius_cap = factor; }

@@ -80,14 +80,21 @@ struct Parameters
    * fandisk, the surface deviation too (docs/RESULTS.md). */
   double max_representative_offset = 0.5;
 
-  /** \brief After the cover, every point farther than this many times the radius cap from every
-   * output point becomes an output point of its own (gap_fill.h), greedily, so that no input point
-   * is farther than max_gap_factor × cap from the output. In target-size mode the cap is the one
-   * the target implies (target_radius_cap), and the bound is widened in ×1.2 steps up to the cap
-   * when the size cannot be reached with it. 0 turns it off (the paper's method). Range: 0 or
-   * (0, 100]. Default 0.6: the coverage max of the output drops by a fifth to a half where
-   * large balls meet (flat regions, scan borders) at the same output size (docs/RESULTS.md). */
-  double max_gap_factor = 0.6;
+  /** \brief The gap bound (stages/gap_fill.h), in the T_err mode and out of core: after the
+   * cover, every point farther than this many times the radius cap from all output points becomes
+   * an output point of its own, greedily, so that no input point is farther than
+   * max_gap_factor × cap from the output (the paper's cover leaves up to 1.5 × cap where an
+   * optimised point sits off its ball's centre). 0 turns it off (the paper's method). Range: 0 or
+   * (0, 100]. Default 1: no point farther than the largest ball radius from the output (+4% points
+   * at T_err 1e-3 on a 1M-point scan, none on the bunny). */
+  double max_gap_factor = 1.0;
+
+  /** \brief The gap bound in target-size mode, as a multiple of the cap the target implies
+   * (target_radius_cap; max_gap_factor applies when that is 0). Tighter than in the T_err mode:
+   * at a given output size it lowers the coverage max by a fifth to a half where large balls meet
+   * (flat regions, scan borders; docs/RESULTS.md). When the size cannot be reached with it, the
+   * search widens it in ×1.1 steps up to the cap. 0 turns it off. Range: 0 or (0, 100]. Default 0.6. */
+  double target_gap_factor = 0.6;
 
   /** \brief Seed of the order in which ball centres are picked (step 3). Same seed, same input,
    * same parameters: the same output bit for bit, whatever the thread count. */

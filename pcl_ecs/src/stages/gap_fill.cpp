@@ -2,6 +2,7 @@
 
 #include <pcl_ecs/stages/adaptive_tolerance.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <unordered_map>
@@ -59,6 +60,31 @@ private:
 };
 }  // namespace
 
+std::vector<std::size_t> closeGaps(const std::vector<Eigen::Vector3d>& outputs,
+                                   const std::vector<Eigen::Vector3d>& candidates, double gap, int threads)
+{
+  std::vector<std::size_t> kept;
+  if (!(gap > 0.0) || !std::isfinite(gap) || candidates.empty())
+    return kept;
+  GapGrid grid(gap);
+  for (const Eigen::Vector3d& p : outputs)
+    grid.insert(p);
+  // Against the outputs alone (read-only grid: in parallel), then greedily in order.
+  std::vector<std::uint8_t> open(candidates.size(), 0);
+  const auto count = static_cast<std::ptrdiff_t>(candidates.size());
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(std::max(1, threads))
+  for (std::ptrdiff_t c = 0; c < count; ++c)
+    open[static_cast<std::size_t>(c)] = grid.near(candidates[static_cast<std::size_t>(c)]) ? 0 : 1;
+  for (std::size_t c = 0; c < candidates.size(); ++c)
+  {
+    if (!open[c] || (!kept.empty() && grid.near(candidates[c])))
+      continue;
+    kept.push_back(c);
+    grid.insert(candidates[c]);
+  }
+  return kept;
+}
+
 std::size_t fillGaps(const CoverInput& in, const Parameters& params, double error_threshold, double gap,
                      CoverOutput& out)
 {
@@ -66,46 +92,39 @@ std::size_t fillGaps(const CoverInput& in, const Parameters& params, double erro
     return 0;
   const std::size_t n = in.cloud.size();
   auto position = [&](std::size_t i) { return Eigen::Vector3d(in.cloud[i].getVector3fMap().cast<double>()); };
-  GapGrid grid(gap);
+  std::vector<Eigen::Vector3d> outputs;
+  outputs.reserve(out.balls.size());
   for (std::size_t i = 0; i < n; ++i)
     if (in.is_feature[i])
-      grid.insert(position(i));
+      outputs.push_back(position(i));
   for (const CoverBall& b : out.balls)
-    grid.insert(b.representative);
-
-  // Candidates: covered points farther than the gap from their own representative and from every
-  // other output point (read-only grid: in parallel).
+    outputs.push_back(b.representative);
+  // Candidates, in cloud order: covered points farther than the gap from their own representative
+  // (the others are within it of an output point already).
   const double gap2 = gap * gap;
-  std::vector<std::uint8_t> open(n, 0);
-  const int threads = resolveThreads(params.threads);
-  const auto count = static_cast<std::ptrdiff_t>(n);
-#pragma omp parallel for schedule(dynamic, 4096) num_threads(threads)
-  for (std::ptrdiff_t ii = 0; ii < count; ++ii)
+  std::vector<std::size_t> index;
+  std::vector<Eigen::Vector3d> candidates;
+  for (std::size_t i = 0; i < n; ++i)
   {
-    const auto i = static_cast<std::size_t>(ii);
     const int o = out.owner[i];
     if (o < 0)
       continue;
     const Eigen::Vector3d p = position(i);
-    if ((p - out.balls[static_cast<std::size_t>(o)].representative).squaredNorm() <= gap2)
-      continue;
-    open[i] = grid.near(p) ? 0 : 1;
+    if ((p - out.balls[static_cast<std::size_t>(o)].representative).squaredNorm() > gap2)
+    {
+      index.push_back(i);
+      candidates.push_back(p);
+    }
   }
-
-  // Greedy, in cloud order: a point still open becomes an output point.
-  std::size_t added = 0;
-  for (std::size_t i = 0; i < n; ++i)
+  const std::vector<std::size_t> kept = closeGaps(outputs, candidates, gap, resolveThreads(params.threads));
+  for (const std::size_t c : kept)
   {
-    if (!open[i])
-      continue;
-    const Eigen::Vector3d p = position(i);
-    if (added > 0 && grid.near(p))
-      continue;
+    const std::size_t i = index[c];
     CoverBall b;
     b.centre = static_cast<int>(i);
     b.tolerance = adaptTolerance(error_threshold, params.adaptive, params.adaptive_factor, in.curvature[i],
                                  in.mean_abs_curvature, in.density[i], in.mean_density);
-    b.representative = p;
+    b.representative = candidates[c];
     b.used_centre = true;
     b.attribute_source = static_cast<int>(i);
     b.normal = in.normals[i];
@@ -113,10 +132,8 @@ std::size_t fillGaps(const CoverInput& in, const Parameters& params, double erro
     --out.balls[static_cast<std::size_t>(out.owner[i])].replaced;
     out.owner[i] = static_cast<int>(out.balls.size());
     out.balls.push_back(b);
-    grid.insert(p);
-    ++added;
   }
-  return added;
+  return kept.size();
 }
 
 }  // namespace pcl_ecs

@@ -9,6 +9,7 @@
 #include <pcl_ecs/stages/ball_cover.h>
 #include <pcl_ecs/stages/density_weights.h>
 #include <pcl_ecs/stages/feature_measure.h>
+#include <pcl_ecs/stages/gap_fill.h>
 #include <pcl_ecs/stages/local_density.h>
 #include <pcl_ecs/stages/normals.h>
 #include <pcl_ecs/stages/paraboloid_curvature.h>
@@ -307,6 +308,8 @@ struct Paths
   fs::path sumB(int t) const { return root / "b" / (std::to_string(t) + ".sum"); }
   fs::path out(int t) const { return root / "c" / (std::to_string(t) + ".out"); }
   fs::path doneC(int t) const { return root / "c" / (std::to_string(t) + ".done"); }
+  fs::path fill(int t) const { return root / "d" / (std::to_string(t) + ".fill"); }
+  fs::path doneD(int t) const { return root / "d" / (std::to_string(t) + ".done"); }
   fs::path claims(int target, int writer) const
   {
     return root / "c" / (std::to_string(target) + ".from." + std::to_string(writer));
@@ -425,6 +428,7 @@ std::string fingerprintOf(const std::string& input, const Parameters& p, std::ui
      << " mtime=" << mtime << " terr=" << p.error_threshold << " alpha=" << p.feature_factor
      << " k=" << p.k_neighbors << " form=" << toString(p.error_form) << " adaptive=" << p.adaptive
      << " af=" << p.adaptive_factor << " cap=" << p.radius_cap_factor << " rep=" << p.max_representative_offset
+     << " gap=" << p.max_gap_factor
      << " seed=" << p.seed << " mem=" << memory_limit;
   return os.str();
 }
@@ -513,6 +517,10 @@ private:
   void phaseA(int t);
   void phaseB(int t);
   void phaseC(int t);
+  void phaseD(int t);
+  /// Writes nrm (turned towards the viewpoint as seen from `at`, local frame) into the record's
+  /// normal fields, when the input has them.
+  void setRecordNormal(std::uint8_t* rec, Eigen::Vector3f nrm, const Eigen::Vector3d& at) const;
   void writeOutput();
   void runStage(const char* name, int index, const std::vector<int>& todo, const std::function<void(int)>& fn);
 
@@ -1129,20 +1137,6 @@ void Runner::phaseC(int t)
 
   // Output: own feature points in input order, then the balls.
   const io::XyzAccess xyz(header_);
-  const int nx = header_.fieldIndex("normal_x"), ny = header_.fieldIndex("normal_y"), nz = header_.fieldIndex("normal_z");
-  const bool has_normals = nx >= 0 && ny >= 0 && nz >= 0;
-  auto setNormal = [&](std::uint8_t* rec, Eigen::Vector3f nrm, const Eigen::Vector3d& at) {
-    if (!has_normals)
-      return;
-    if ((viewpoint_local_ - at).dot(nrm.cast<double>()) < 0.0)
-      nrm = -nrm;
-    const int f[3] = {nx, ny, nz};
-    for (int a = 0; a < 3; ++a)
-    {
-      const auto& field = header_.fields[static_cast<std::size_t>(f[a])];
-      io::storeFieldValue(nrm[a], field.datatype, rec + field.offset);
-    }
-  };
   std::vector<std::size_t> features;
   for (std::size_t i = 0; i < n; ++i)
     if (d.is_core[i] && is_feature[i])
@@ -1155,7 +1149,7 @@ void Runner::phaseC(int t)
   {
     std::uint8_t* rec = out.data() + (o++) * step;
     std::memcpy(rec, d.records.data() + i * step, step);
-    setNormal(rec, normals[i], (*d.cloud)[i].getVector3fMap().cast<double>());
+    setRecordNormal(rec, normals[i], (*d.cloud)[i].getVector3fMap().cast<double>());
   }
   const Eigen::Vector3d origin = plan_.origin();
   for (const CoverBall& b : cover.balls)
@@ -1165,7 +1159,7 @@ void Runner::phaseC(int t)
     const Eigen::Vector3d world = b.representative + origin;
     // Written through float like the in-memory filter's PCL point types.
     xyz.set(rec, static_cast<float>(world.x()), static_cast<float>(world.y()), static_cast<float>(world.z()));
-    setNormal(rec, b.normal, b.representative);
+    setRecordNormal(rec, b.normal, b.representative);
     stats[2] = std::max(stats[2], b.error);
   }
   stats[0] = static_cast<double>(features.size());
@@ -1185,6 +1179,83 @@ void Runner::phaseC(int t)
     }
   writeVectorAtomic(paths_.out(t), out);
   writeVectorAtomic(paths_.doneC(t), stats);
+}
+
+void Runner::setRecordNormal(std::uint8_t* rec, Eigen::Vector3f nrm, const Eigen::Vector3d& at) const
+{
+  const int f[3] = {header_.fieldIndex("normal_x"), header_.fieldIndex("normal_y"), header_.fieldIndex("normal_z")};
+  if (f[0] < 0 || f[1] < 0 || f[2] < 0)
+    return;
+  if ((viewpoint_local_ - at).dot(nrm.cast<double>()) < 0.0)
+    nrm = -nrm;
+  for (int a = 0; a < 3; ++a)
+  {
+    const auto& field = header_.fields[static_cast<std::size_t>(f[a])];
+    io::storeFieldValue(nrm[a], field.datatype, rec + field.offset);
+  }
+}
+
+// The gap bound (gap_fill.h) once every tile's cover is written: a tile's own non-feature points
+// farther than the gap from every output point near it (the covers of the tiles within the gap,
+// the gap points of those of earlier colours) become output points, greedily in the tile's order.
+// Tiles of one colour are more than two radius caps apart, so their gap points cannot interact.
+void Runner::phaseD(int t)
+{
+  const double gap = params_.max_gap_factor * cap_;
+  const std::size_t step = header_.point_step;
+  std::vector<std::uint8_t> out;
+  std::vector<double> stats(1, 0.0);  // gap points
+  if (gap > 0.0)
+  {
+    TileData d = loadTile(t);
+    const std::size_t n = d.size();
+    const auto attr_bytes = readVector<std::uint8_t>(paths_.attr(t));
+    const AttrView attr{attr_bytes};
+    const std::vector<std::uint8_t> is_feature = attr.features(delta_);
+    const io::XyzAccess xyz(header_);
+    const Eigen::Vector3d origin = plan_.origin();
+    const Tile& tile = plan_.tree.tiles[static_cast<std::size_t>(t)];
+    std::vector<Eigen::Vector3d> outputs;
+    auto readOutputs = [&](const fs::path& path) {
+      const auto bytes = readVector<std::uint8_t>(path);
+      for (std::size_t o = 0; o + step <= bytes.size(); o += step)
+      {
+        Eigen::Vector3d w;
+        xyz.get(bytes.data() + o, w.x(), w.y(), w.z());
+        outputs.push_back(w - origin);
+      }
+    };
+    for (std::size_t s = 0; s < plan_.tree.tiles.size(); ++s)
+    {
+      const Tile& other = plan_.tree.tiles[s];
+      if (tileDistance(tile, other) > gap)  // distances in the tiling plane are at most the 3D ones
+        continue;
+      readOutputs(paths_.out(static_cast<int>(s)));
+      if (other.colour < tile.colour)
+        readOutputs(paths_.fill(static_cast<int>(s)));
+    }
+    std::vector<std::size_t> index;
+    std::vector<Eigen::Vector3d> candidates;
+    for (std::size_t i = 0; i < n; ++i)
+      if (d.is_core[i] && !is_feature[i])
+      {
+        index.push_back(i);
+        candidates.push_back((*d.cloud)[i].getVector3fMap().cast<double>());
+      }
+    const std::vector<std::size_t> kept = closeGaps(outputs, candidates, gap, tile_threads_);
+    out.resize(kept.size() * step);
+    for (std::size_t k = 0; k < kept.size(); ++k)
+    {
+      const std::size_t i = index[kept[k]];
+      std::uint8_t* rec = out.data() + k * step;
+      std::memcpy(rec, d.records.data() + i * step, step);
+      setRecordNormal(rec, attr.normal(i), candidates[kept[k]]);
+    }
+    stats[0] = static_cast<double>(kept.size());
+  }
+  fs::create_directories(paths_.root / "d");
+  writeVectorAtomic(paths_.fill(t), out);
+  writeVectorAtomic(paths_.doneD(t), stats);
 }
 
 void Runner::runStage(const char* name, int index, const std::vector<int>& todo, const std::function<void(int)>& fn)
@@ -1232,6 +1303,12 @@ void Runner::writeOutput()
       if (got == 0)
         break;
       writer.append(buf.data(), got / header_.point_step);
+    }
+    // The tile's gap points (phase D) after its cover.
+    if (params_.max_gap_factor > 0.0)
+    {
+      const auto fill = readVector<std::uint8_t>(paths_.fill(static_cast<int>(t)));
+      writer.append(fill.data(), fill.size() / header_.point_step);
     }
   }
   summary_.output_points = writer.written();
@@ -1397,12 +1474,28 @@ StreamSummary Runner::run()
     const std::string name = "C (cover, colour " + std::to_string(c + 1) + "/" + std::to_string(colours) + ")";
     runStage(name.c_str(), 4, todo, [&](int t) { phaseC(t); });
   }
+  if (params_.max_gap_factor > 0.0)
+    for (int c = 0; c < colours; ++c)
+    {
+      std::vector<int> todo;
+      for (int t = 0; t < tiles; ++t)
+        if (plan_.tree.tiles[static_cast<std::size_t>(t)].colour == c && !fs::exists(paths_.doneD(t)))
+          todo.push_back(t);
+      const std::string name = "D (gaps, colour " + std::to_string(c + 1) + "/" + std::to_string(colours) + ")";
+      runStage(name.c_str(), 4, todo, [&](int t) { phaseD(t); });
+    }
   for (int t = 0; t < tiles; ++t)
   {
     const auto s = readVector<double>(paths_.doneC(t));
     summary_.feature_points += static_cast<std::uint64_t>(s.at(0));
     summary_.balls += static_cast<std::uint64_t>(s.at(1));
     summary_.max_error = std::max(summary_.max_error, s.at(2));
+    if (params_.max_gap_factor > 0.0)
+    {
+      const auto g = readVector<double>(paths_.doneD(t));
+      summary_.gap_points += static_cast<std::uint64_t>(g.at(0));
+      summary_.balls += static_cast<std::uint64_t>(g.at(0));
+    }
   }
   track_scratch();
   writeOutput();

@@ -11,8 +11,20 @@
 #include <pcl_ecs/parameters.h>
 #include <pcl_ecs/stages/ball_cover.h>
 
+#include <cstddef>
+#include <vector>
+
+#include <Eigen/Core>
+
 namespace pcl_ecs
 {
+
+/** \brief The greedy step on plain points: goes through `candidates` in order and keeps each one
+ * that has no point of `outputs`, nor a candidate kept before it, within `gap`. Returns the
+ * positions in `candidates` of the kept ones, ascending. The first test (against `outputs` alone)
+ * runs on `threads` threads; the result does not depend on them. */
+std::vector<std::size_t> closeGaps(const std::vector<Eigen::Vector3d>& outputs,
+                                   const std::vector<Eigen::Vector3d>& candidates, double gap, int threads);
 
 /** \brief Add radius-0 balls until every point covered by `out` lies within `gap` of an output
  * point (a feature point of `in` or a representative of `out`); the added balls take over their

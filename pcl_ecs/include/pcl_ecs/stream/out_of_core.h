@@ -68,7 +68,8 @@ struct StreamSummary
   std::uint64_t finite_points = 0;
   std::uint64_t output_points = 0;
   std::uint64_t feature_points = 0;
-  std::uint64_t balls = 0;
+  std::uint64_t balls = 0;           ///< ball representatives, gap points included
+  std::uint64_t gap_points = 0;      ///< points added by the gap bound (phase D)
   int axis_u = 0, axis_v = 1;
   std::vector<Tile> tiles;
   double halo = 0.0;                  ///< halo width (input units)
