@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # What the gap bound (--max-gap, stages/gap_fill.h) does to the bar: pcl_ecs at 10% and 3% of every
-# shared scan with --max-gap 0 (the paper's cover), 0.8, 0.6 (the default) and 0.4, measured with
+# shared scan with --target-gap 0 (the paper's cover), 0.8, 0.6 (the default) and 0.4, measured with
 # pcl_ecs_eval. Writes bench/results/gap_experiment.md (quality only, so it can run on a busy machine).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
@@ -11,14 +11,14 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 out=$here/results/gap_experiment.md
 {
-  echo "| input | target | --max-gap | output points | gap points | surface RMS | coverage max | coverage mean | edge mean |"
+  echo "| input | target | --target-gap | output points | gap points | surface RMS | coverage max | coverage mean | edge mean |"
   echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"
   for pair in bunny:bunny_mesh fandisk_scan:fandisk_mesh bun000_rangescan: table_scene_mug_organized: terrain_csite1_utm:; do
     cloud=${pair%%:*}
     mesh=${pair##*:}
     for ratio in 0.1 0.03; do
       for gap in 0 0.8 0.6 0.4; do
-        "$build/tools/pcd_simplify" "$data/$cloud.pcd" "$tmp/s.pcd" --target-ratio "$ratio" --max-gap "$gap" \
+        "$build/tools/pcd_simplify" "$data/$cloud.pcd" "$tmp/s.pcd" --target-ratio "$ratio" --target-gap "$gap" \
           --stats "$tmp/s.json" -q
         "$build/tools/pcl_ecs_eval" "$data/$cloud.pcd" "$tmp/s.pcd" ${mesh:+--mesh "$data/$mesh.ply"} --json > "$tmp/e.json"
         python3 - "$cloud" "$ratio" "$gap" "$tmp/s.json" "$tmp/e.json" <<'PY'

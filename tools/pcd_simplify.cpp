@@ -55,8 +55,7 @@ Scans larger than memory (PCD in, binary PCD out; docs/STREAMING.md):
                       Progress on stderr. Killed? Run the same command again: it resumes from
                       the finished tiles. Takes --terr (not a target size); all fields of the
                       input are kept. Output depends on --memory-limit (the tiling), not on
-                      --threads. The gap bound (--max-gap) is not applied out of core yet: the
-                      tiles run the paper's cover, as in memory with --max-gap 0.
+                      --threads. The gap bound (--max-gap) holds across tiles as in memory.
   --memory-limit SIZE memory budget, e.g. 512M, 2G (default: a quarter of the RAM, >= 256M)
   --scratch DIR       scratch directory (default OUTPUT.ecs-scratch); needs about 150 bytes
                       per input point plus 2.3 × the input's size free (50M points use
