@@ -267,3 +267,48 @@ TEST(GapFill, ThreadCountDoesNotChangeTheResult)
   }
   EXPECT_EQ(reps[0], reps[1]);
 }
+
+TEST(GapFill, FarFromAndCloseGapsOnPlainPoints)
+{
+  // Outputs on a unit grid; candidates on a finer grid: "far" exactly when beyond the gap of every
+  // output (brute force), and the greedy keeps far candidates more than the gap apart, in order.
+  std::vector<Eigen::Vector3d> outputs, points;
+  for (int i = 0; i <= 4; ++i)
+    for (int j = 0; j <= 4; ++j)
+      outputs.emplace_back(i, j, 0.0);
+  for (int i = 0; i <= 40; ++i)
+    for (int j = 0; j <= 40; ++j)
+      points.emplace_back(0.1 * i, 0.1 * j, 0.05);
+  const double gap = 0.45;
+  const auto far = pcl_ecs::farFrom(outputs, points, gap, 3);
+  std::size_t far_count = 0;
+  for (std::size_t k = 0; k < points.size(); ++k)
+  {
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& o : outputs)
+      best = std::min(best, (o - points[k]).norm());
+    EXPECT_EQ(far[k] != 0, best > gap) << k;
+    far_count += far[k];
+  }
+  ASSERT_GT(far_count, 0u);
+  EXPECT_EQ(pcl_ecs::farFrom(outputs, points, 0.0, 3), std::vector<std::uint8_t>(points.size(), 0));
+  const auto kept = pcl_ecs::closeGaps(outputs, points, gap, 3);
+  ASSERT_FALSE(kept.empty());
+  EXPECT_TRUE(std::is_sorted(kept.begin(), kept.end()));
+  for (std::size_t a = 0; a < kept.size(); ++a)
+  {
+    EXPECT_TRUE(far[kept[a]]);
+    for (std::size_t b = a + 1; b < kept.size(); ++b)
+      EXPECT_GT((points[kept[a]] - points[kept[b]]).norm(), gap);
+  }
+  // Every far point ends within the gap of an output or a kept point.
+  for (std::size_t k = 0; k < points.size(); ++k)
+  {
+    if (!far[k])
+      continue;
+    double best = std::numeric_limits<double>::infinity();
+    for (const std::size_t c : kept)
+      best = std::min(best, (points[c] - points[k]).norm());
+    EXPECT_LE(best, gap) << k;
+  }
+}

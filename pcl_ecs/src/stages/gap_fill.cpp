@@ -60,6 +60,31 @@ private:
 };
 }  // namespace
 
+namespace
+{
+/// farFrom on a grid holding the outputs.
+std::vector<std::uint8_t> farFromGrid(const GapGrid& grid, const std::vector<Eigen::Vector3d>& points, int threads)
+{
+  std::vector<std::uint8_t> far(points.size(), 0);
+  const auto count = static_cast<std::ptrdiff_t>(points.size());
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(std::max(1, threads))
+  for (std::ptrdiff_t c = 0; c < count; ++c)
+    far[static_cast<std::size_t>(c)] = grid.near(points[static_cast<std::size_t>(c)]) ? 0 : 1;
+  return far;
+}
+}  // namespace
+
+std::vector<std::uint8_t> farFrom(const std::vector<Eigen::Vector3d>& outputs,
+                                  const std::vector<Eigen::Vector3d>& points, double gap, int threads)
+{
+  if (!(gap > 0.0) || !std::isfinite(gap))
+    return std::vector<std::uint8_t>(points.size(), 0);
+  GapGrid grid(gap);
+  for (const Eigen::Vector3d& p : outputs)
+    grid.insert(p);
+  return farFromGrid(grid, points, threads);
+}
+
 std::vector<std::size_t> closeGaps(const std::vector<Eigen::Vector3d>& outputs,
                                    const std::vector<Eigen::Vector3d>& candidates, double gap, int threads)
 {
@@ -70,11 +95,7 @@ std::vector<std::size_t> closeGaps(const std::vector<Eigen::Vector3d>& outputs,
   for (const Eigen::Vector3d& p : outputs)
     grid.insert(p);
   // Against the outputs alone (read-only grid: in parallel), then greedily in order.
-  std::vector<std::uint8_t> open(candidates.size(), 0);
-  const auto count = static_cast<std::ptrdiff_t>(candidates.size());
-#pragma omp parallel for schedule(dynamic, 1024) num_threads(std::max(1, threads))
-  for (std::ptrdiff_t c = 0; c < count; ++c)
-    open[static_cast<std::size_t>(c)] = grid.near(candidates[static_cast<std::size_t>(c)]) ? 0 : 1;
+  const std::vector<std::uint8_t> open = farFromGrid(grid, candidates, threads);
   for (std::size_t c = 0; c < candidates.size(); ++c)
   {
     if (!open[c] || (!kept.empty() && grid.near(candidates[c])))

@@ -308,6 +308,7 @@ struct Paths
   fs::path sumB(int t) const { return root / "b" / (std::to_string(t) + ".sum"); }
   fs::path out(int t) const { return root / "c" / (std::to_string(t) + ".out"); }
   fs::path doneC(int t) const { return root / "c" / (std::to_string(t) + ".done"); }
+  fs::path gapCandidates(int t) const { return root / "c" / (std::to_string(t) + ".gapc"); }
   fs::path fill(int t) const { return root / "d" / (std::to_string(t) + ".fill"); }
   fs::path doneD(int t) const { return root / "d" / (std::to_string(t) + ".done"); }
   fs::path claims(int target, int writer) const
@@ -1177,6 +1178,38 @@ void Runner::phaseC(int t)
       std::sort(claims[s].begin(), claims[s].end());
       writeVectorAtomic(paths_.claims(static_cast<int>(s), t), claims[s]);
     }
+  // Gap candidates for phase D: the tile's own non-feature points farther than the gap from every
+  // output point this tile knows (its balls, the feature points of its core and halo). Points
+  // within it are within it of the final output too, so phase D reads only these.
+  if (params_.max_gap_factor > 0.0)
+  {
+    std::vector<Eigen::Vector3d> known, own;
+    std::vector<std::size_t> own_index;
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      const Eigen::Vector3d q = (*d.cloud)[i].getVector3fMap().cast<double>();
+      if (is_feature[i])
+        known.push_back(q);
+      else if (d.is_core[i])
+      {
+        own.push_back(q);
+        own_index.push_back(i);
+      }
+    }
+    for (const CoverBall& b : cover.balls)
+      known.push_back(b.representative);
+    const std::vector<std::uint8_t> far = farFrom(known, own, params_.max_gap_factor * cap_, tile_threads_);
+    std::vector<std::uint8_t> candidates;
+    for (std::size_t k = 0; k < own.size(); ++k)
+      if (far[k])
+      {
+        const std::size_t i = own_index[k];
+        candidates.insert(candidates.end(), d.records.begin() + static_cast<std::ptrdiff_t>(i * step),
+                          d.records.begin() + static_cast<std::ptrdiff_t>((i + 1) * step));
+        setRecordNormal(candidates.data() + candidates.size() - step, normals[i], own[k]);
+      }
+    writeVectorAtomic(paths_.gapCandidates(t), candidates);
+  }
   writeVectorAtomic(paths_.out(t), out);
   writeVectorAtomic(paths_.doneC(t), stats);
 }
@@ -1195,62 +1228,46 @@ void Runner::setRecordNormal(std::uint8_t* rec, Eigen::Vector3f nrm, const Eigen
   }
 }
 
-// The gap bound (gap_fill.h) once every tile's cover is written: a tile's own non-feature points
-// farther than the gap from every output point near it (the covers of the tiles within the gap,
-// the gap points of those of earlier colours) become output points, greedily in the tile's order.
-// Tiles of one colour are more than two radius caps apart, so their gap points cannot interact.
+// The gap bound (gap_fill.h) once every tile's cover is written: the tile's gap candidates (phase C)
+// still farther than the gap from every output point near them (the covers of the tiles within the
+// gap, the gap points of those of earlier colours) become output points, greedily in the tile's
+// order. Tiles of one colour are more than two radius caps apart: their gap points cannot interact.
 void Runner::phaseD(int t)
 {
   const double gap = params_.max_gap_factor * cap_;
   const std::size_t step = header_.point_step;
   std::vector<std::uint8_t> out;
   std::vector<double> stats(1, 0.0);  // gap points
-  if (gap > 0.0)
+  const auto records = readVector<std::uint8_t>(paths_.gapCandidates(t));
+  if (gap > 0.0 && !records.empty())
   {
-    TileData d = loadTile(t);
-    const std::size_t n = d.size();
-    const auto attr_bytes = readVector<std::uint8_t>(paths_.attr(t));
-    const AttrView attr{attr_bytes};
-    const std::vector<std::uint8_t> is_feature = attr.features(delta_);
     const io::XyzAccess xyz(header_);
     const Eigen::Vector3d origin = plan_.origin();
-    const Tile& tile = plan_.tree.tiles[static_cast<std::size_t>(t)];
-    std::vector<Eigen::Vector3d> outputs;
-    auto readOutputs = [&](const fs::path& path) {
-      const auto bytes = readVector<std::uint8_t>(path);
+    auto positions = [&](const std::vector<std::uint8_t>& bytes, std::vector<Eigen::Vector3d>& into) {
       for (std::size_t o = 0; o + step <= bytes.size(); o += step)
       {
         Eigen::Vector3d w;
         xyz.get(bytes.data() + o, w.x(), w.y(), w.z());
-        outputs.push_back(w - origin);
+        into.push_back(w - origin);
       }
     };
+    std::vector<Eigen::Vector3d> outputs, candidates;
+    positions(records, candidates);
+    const Tile& tile = plan_.tree.tiles[static_cast<std::size_t>(t)];
     for (std::size_t s = 0; s < plan_.tree.tiles.size(); ++s)
     {
       const Tile& other = plan_.tree.tiles[s];
       if (tileDistance(tile, other) > gap)  // distances in the tiling plane are at most the 3D ones
         continue;
-      readOutputs(paths_.out(static_cast<int>(s)));
+      positions(readVector<std::uint8_t>(paths_.out(static_cast<int>(s))), outputs);
       if (other.colour < tile.colour)
-        readOutputs(paths_.fill(static_cast<int>(s)));
+        positions(readVector<std::uint8_t>(paths_.fill(static_cast<int>(s))), outputs);
     }
-    std::vector<std::size_t> index;
-    std::vector<Eigen::Vector3d> candidates;
-    for (std::size_t i = 0; i < n; ++i)
-      if (d.is_core[i] && !is_feature[i])
-      {
-        index.push_back(i);
-        candidates.push_back((*d.cloud)[i].getVector3fMap().cast<double>());
-      }
     const std::vector<std::size_t> kept = closeGaps(outputs, candidates, gap, tile_threads_);
-    out.resize(kept.size() * step);
-    for (std::size_t k = 0; k < kept.size(); ++k)
-    {
-      const std::size_t i = index[kept[k]];
-      std::uint8_t* rec = out.data() + k * step;
-      std::memcpy(rec, d.records.data() + i * step, step);
-      setRecordNormal(rec, attr.normal(i), candidates[kept[k]]);
-    }
+    out.reserve(kept.size() * step);
+    for (const std::size_t k : kept)
+      out.insert(out.end(), records.begin() + static_cast<std::ptrdiff_t>(k * step),
+                 records.begin() + static_cast<std::ptrdiff_t>((k + 1) * step));
     stats[0] = static_cast<double>(kept.size());
   }
   fs::create_directories(paths_.root / "d");

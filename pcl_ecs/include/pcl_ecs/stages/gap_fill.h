@@ -12,12 +12,18 @@
 #include <pcl_ecs/stages/ball_cover.h>
 
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include <Eigen/Core>
 
 namespace pcl_ecs
 {
+
+/** \brief Per point of `points`: 1 when no point of `outputs` lies within `gap` of it (all 0 when
+ * `gap` is not a positive bound). Parallel on `threads`; independent of them. */
+std::vector<std::uint8_t> farFrom(const std::vector<Eigen::Vector3d>& outputs,
+                                  const std::vector<Eigen::Vector3d>& points, double gap, int threads);
 
 /** \brief The greedy step on plain points: goes through `candidates` in order and keeps each one
  * that has no point of `outputs`, nor a candidate kept before it, within `gap`. Returns the
