@@ -441,9 +441,10 @@ int runStream(const Options& o)
     j["output"] = o.output;
     j["parameters"] = {{"error_threshold", o.params.error_threshold}, {"feature_factor", o.params.feature_factor},
                        {"k_neighbors", o.params.k_neighbors},         {"seed", o.params.seed},
-                       {"memory_limit", o.memory_limit}};
+                       {"max_gap_factor", o.params.max_gap_factor},   {"memory_limit", o.memory_limit}};
     j["counts"] = {{"input_points", s.input_points}, {"finite_points", s.finite_points},
-                   {"feature_points", s.feature_points}, {"balls", s.balls}, {"output_points", s.output_points}};
+                   {"feature_points", s.feature_points}, {"balls", s.balls},
+                   {"gap_points", s.gap_points},         {"output_points", s.output_points}};
     j["geometry"] = {{"bbox_diagonal", s.bbox_diagonal},         {"feature_threshold", s.feature_threshold},
                      {"mean_spacing", s.mean_spacing},           {"neighborhood_radius", s.neighborhood_radius},
                      {"mean_abs_curvature", s.mean_abs_curvature}, {"max_error", s.max_error},
