@@ -542,6 +542,7 @@ private:
   // global statistics
   double delta_ = 0.0, mean_spacing_ = 0.0, mean_abs_h_ = 0.0, neighborhood_radius_ = 0.0, cap_ = 0.0;
   Eigen::Vector3d viewpoint_local_ = Eigen::Vector3d::Zero();
+  std::array<int, 3> normal_fields_{{-1, -1, -1}};  // normal_x/y/z in the records, -1: absent
 };
 
 void Runner::scanAndPlan(io::PcdStreamReader& reader)
@@ -1216,7 +1217,7 @@ void Runner::phaseC(int t)
 
 void Runner::setRecordNormal(std::uint8_t* rec, Eigen::Vector3f nrm, const Eigen::Vector3d& at) const
 {
-  const int f[3] = {header_.fieldIndex("normal_x"), header_.fieldIndex("normal_y"), header_.fieldIndex("normal_z")};
+  const std::array<int, 3>& f = normal_fields_;
   if (f[0] < 0 || f[1] < 0 || f[2] < 0)
     return;
   if ((viewpoint_local_ - at).dot(nrm.cast<double>()) < 0.0)
@@ -1415,6 +1416,7 @@ StreamSummary Runner::run()
   summary_.axis_v = plan_.axis_v;
   summary_.tile_point_budget = plan_.tile_point_budget;
   viewpoint_local_ = Eigen::Vector3d(header_.viewpoint[0], header_.viewpoint[1], header_.viewpoint[2]) - plan_.origin();
+  normal_fields_ = {header_.fieldIndex("normal_x"), header_.fieldIndex("normal_y"), header_.fieldIndex("normal_z")};
   const int tiles = static_cast<int>(plan_.tree.tiles.size());
   auto pending = [&](const std::function<fs::path(int)>& marker) {
     std::vector<int> todo;
