@@ -2,15 +2,11 @@
 # What the radius cap and the representative rule do to the bar: pcl_ecs at 10% and 3% of the
 # bunny and the fandisk with --radius-cap 5, 3 and 2 and the target-following cap (all with the
 # paper's representative rule, --rep-offset 1), then the target cap with --rep-offset 0.5 (the
-# default) and 0.25, all without the gap bound (--max-gap 0 --target-gap 0); measured with pcl_ecs_eval. Writes bench/results/cap_experiment.md (quality
-# only, so it can run on a busy machine).
+# default) and 0.25, all without the gap bound (--max-gap 0 --target-gap 0); measured with
+# pcl_ecs_eval. Writes bench/results/cap_experiment.md (quality only, so it can run on a busy machine).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
-root=$(dirname "$here")
-build=${BUILD_DIR:-$root/build}
-data=${PCL_ECS_SHARED_DATA_DIR:-$root/../shared/data}
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+source "$here/experiment_env.sh"
 out=$here/results/cap_experiment.md
 {
   echo "| input | target | radius cap | representative offset | output points | surface RMS | coverage max | edge mean |"

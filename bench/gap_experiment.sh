@@ -4,11 +4,7 @@
 # pcl_ecs_eval. Writes bench/results/gap_experiment.md (quality only, so it can run on a busy machine).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
-root=$(dirname "$here")
-build=${BUILD_DIR:-$root/build}
-data=${PCL_ECS_SHARED_DATA_DIR:-$root/../shared/data}
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+source "$here/experiment_env.sh"
 out=$here/results/gap_experiment.md
 {
   echo "| input | target | --target-gap | output points | gap points | surface RMS | coverage max | coverage mean | edge mean |"
