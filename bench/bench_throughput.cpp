@@ -4,6 +4,7 @@
 //
 //   bench_throughput --mesh ../shared/data/bunny_mesh.ply --points 1000000 [--keep 0.10]
 //   bench_throughput --cloud ../shared/data/terrain_csite1_utm.pcd [--keep 0.10] [--repeat 3] [--json out.json]
+//   bench_throughput --mesh ../shared/data/bunny_mesh.ply --points 1000000 --save-input m.pcd  (the sample only)
 #include "bench_common.h"
 #include "mesh_sampler.h"
 
@@ -24,6 +25,7 @@
 
 #include <nlohmann/json.hpp>
 #include <pcl/conversions.h>
+#include <pcl/io/pcd_io.h>
 #include <pcl/filters/voxel_grid.h>
 
 #ifdef PCL_ECS_BENCH_WITH_CGAL
@@ -39,7 +41,7 @@ using namespace pcl_ecs_bench;
 
 int main(int argc, char** argv)
 {
-  std::string mesh, cloud_path, json_path;
+  std::string mesh, cloud_path, json_path, save_path;
   std::size_t points = 1000000;
   double keep = 0.10;
   int threads = 0;
@@ -63,6 +65,7 @@ int main(int argc, char** argv)
     else if (a == "--threads") threads = std::stoi(keep_arg(next()));
     else if (a == "--json") json_path = next();
     else if (a == "--repeat") repeat = std::max(1, std::stoi(next()));
+    else if (a == "--save-input") save_path = next();
     else if (a == "--child")
     {
       child_method = next();
@@ -70,7 +73,7 @@ int main(int argc, char** argv)
     }
     else
     {
-      std::cerr << "usage: bench_throughput (--mesh M.ply [--points N] | --cloud C.pcd) [--keep R] [--threads T] [--repeat N] [--json F]\n";
+      std::cerr << "usage: bench_throughput (--mesh M.ply [--points N] | --cloud C.pcd) [--keep R] [--threads T] [--repeat N] [--json F] [--save-input F.pcd]\n";
       return 2;
     }
   }
@@ -90,6 +93,8 @@ int main(int argc, char** argv)
     source = cloud_path;
   }
   const std::size_t n = cloud->size();
+  if (!save_path.empty())  // the exact input, for profiling the same cloud with other tools
+    return pcl::io::savePCDFileBinary(save_path, *cloud) < 0 ? 1 : 0;
 
   // The three methods, each run with its own parameter (T_err, leaf size, cluster size).
   Cloud out;

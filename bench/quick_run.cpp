@@ -3,6 +3,9 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <algorithm>
+#include <string>
+#include <utility>
 
 #include <pcl/io/pcd_io.h>
 
@@ -10,7 +13,7 @@ int main(int argc, char** argv)
 {
   if (argc < 2)
   {
-    std::fprintf(stderr, "usage: quick_run FILE.pcd [terr] [alpha] [cap] [target] [threads] [form]\n");
+    std::fprintf(stderr, "usage: quick_run FILE.pcd [terr] [alpha] [cap] [target] [threads] [form] [repeat]\n");
     return 2;
   }
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
@@ -27,7 +30,20 @@ int main(int argc, char** argv)
   pcl::PointCloud<pcl::PointXYZ> out;
   f.filter(out);
   const auto& s = f.getResult().summary;
-  const auto& t = s.timings;
+  // With a repeat count, each stage's least time over that many runs (a busy machine adds, never
+  // subtracts: the least is the steadiest figure to compare two builds by).
+  pcl_ecs::StageTimings t = s.timings;
+  const int repeat = argc > 8 ? std::max(1, std::atoi(argv[8])) : 1;
+  for (int r = 1; r < repeat; ++r)
+  {
+    f.filter(out);
+    const auto& u = f.getResult().summary.timings;
+    for (auto [mine, theirs] : {std::pair{&t.preparation, u.preparation}, {&t.neighbors, u.neighbors},
+                                {&t.normals, u.normals}, {&t.weights, u.weights}, {&t.features, u.features},
+                                {&t.density, u.density}, {&t.curvature, u.curvature}, {&t.cover, u.cover},
+                                {&t.output, u.output}, {&t.total, u.total}})
+      *mine = std::min(*mine, theirs);
+  }
   std::printf("in %zu out %zu (%.2f%%) features %zu balls %zu fallbacks %zu T %.3g maxE %.3g "
               "spacing %.4g L %.4g iters %d evals/ball %.2f\n",
               s.finite_points, out.size(), 100.0 * out.size() / s.finite_points, s.feature_points,

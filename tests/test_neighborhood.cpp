@@ -1,9 +1,12 @@
 #include <pcl_ecs/neighborhood.h>
+#include <pcl_ecs/search/box_tree_search.h>
 #include <pcl_ecs/search/nanoflann_search.h>
+#include <pcl_ecs/spatial_order.h>
 
 #include "synthetic_shapes.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include <gtest/gtest.h>
 #include <pcl/search/kdtree.h>
@@ -94,9 +97,12 @@ TEST(Neighborhood, ExactOnTiesDuplicatesAndOutliers)
   nano.setInputCloud(cloud);
   pcl::search::KdTree<pcl::PointXYZ> flann;
   flann.setInputCloud(cloud);
+  pcl_ecs::BoxTreeSearch boxes;
+  boxes.setInputCloud(cloud);
   for (const pcl::search::Search<pcl::PointXYZ>* search :
        {static_cast<const pcl::search::Search<pcl::PointXYZ>*>(&nano),
-        static_cast<const pcl::search::Search<pcl::PointXYZ>*>(&flann)})
+        static_cast<const pcl::search::Search<pcl::PointXYZ>*>(&flann),
+        static_cast<const pcl::search::Search<pcl::PointXYZ>*>(&boxes)})
     for (int threads : {1, 2})
     {
       pcl_ecs::NeighborhoodTable table;
@@ -144,4 +150,61 @@ TEST(Neighborhood, ExactFarFromTheOrigin)
       wrong += table.neighbors(i)[j] != all[static_cast<std::size_t>(j)].second ? 1 : 0;
   }
   EXPECT_EQ(wrong, 0u);
+}
+
+// In Morton order (as the filter keeps its points) consecutive points share one gathered ball;
+// where the density jumps a point's k-th neighbour lies past that ball and the point is answered
+// by a query of its own. Strips of 1x, 4x and 16x the spacing, a dense cluster and lone points,
+// on the box tree the filter uses: the table must still equal brute force exactly.
+TEST(Neighborhood, ExactInMortonOrderWhereTheDensityJumps)
+{
+  Rng rng(41);
+  Cloud raw;
+  for (int strip = 0; strip < 3; ++strip)
+  {
+    const double h = 0.01 * std::pow(4.0, strip);
+    for (double x = 0; x < 0.6; x += h)
+      for (double y = 0.6 * strip; y < 0.6 * strip + 0.6; y += h)
+        raw.push_back(toPoint({x + 0.2 * h * rng.uniform(), y + 0.2 * h * rng.uniform(), 0.001 * rng.uniform()}));
+  }
+  for (int i = 0; i < 800; ++i)
+    raw.push_back(toPoint({0.3 + 0.01 * rng.uniform(), 1.5 + 0.01 * rng.uniform(), 0.0}));
+  for (int i = 0; i < 40; ++i)
+    raw.push_back(toPoint({rng.uniform(-2, 3), rng.uniform(-2, 3), rng.uniform(-1, 1)}));
+  std::vector<int> ids(raw.size());
+  for (std::size_t i = 0; i < ids.size(); ++i)
+    ids[i] = static_cast<int>(i);
+  auto position = [&](int i) { return raw[static_cast<std::size_t>(i)].getVector3fMap().cast<double>().eval(); };
+  pcl_ecs::sortByMortonCode(ids, position, Eigen::Vector3d(-2, -2, -1), Eigen::Vector3d(3, 3, 1));
+  auto cloud = std::make_shared<Cloud>();
+  for (const int i : ids)
+    cloud->push_back(raw[static_cast<std::size_t>(i)]);
+  const int k = 16;
+  pcl_ecs::BoxTreeSearch boxes;
+  boxes.setInputCloud(cloud);
+  std::vector<std::pair<float, int>> all;
+  for (int threads : {1, 2})
+  {
+    pcl_ecs::NeighborhoodTable table;
+    ASSERT_EQ(pcl_ecs::computeNeighborhoods(*cloud, boxes, k, threads, table), pcl_ecs::Status::Ok);
+    std::size_t wrong = 0;
+    for (std::size_t i = 0; i < cloud->size(); ++i)
+    {
+      all.clear();
+      for (std::size_t j = 0; j < cloud->size(); ++j)
+        if (j != i)
+        {
+          const pcl::PointXYZ &a = (*cloud)[i], &b = (*cloud)[j];
+          const float dx = a.x - b.x, dy = a.y - b.y, dz = a.z - b.z;
+          all.emplace_back(dx * dx + dy * dy + dz * dz, static_cast<int>(j));
+        }
+      std::partial_sort(all.begin(), all.begin() + k, all.end());
+      for (int j = 0; j < k; ++j)
+        wrong += table.neighbors(i)[j] != all[static_cast<std::size_t>(j)].second ||
+                         table.sqrDistances(i)[j] != all[static_cast<std::size_t>(j)].first
+                     ? 1
+                     : 0;
+    }
+    EXPECT_EQ(wrong, 0u) << threads << " threads";
+  }
 }

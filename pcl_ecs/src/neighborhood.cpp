@@ -33,8 +33,8 @@ void storeRow(std::vector<Pair>& row, int k, std::ptrdiff_t i, NeighborhoodTable
 /// Work space of one thread.
 struct Worker
 {
-  pcl::Indices found;
-  std::vector<float> d2;
+  pcl::Indices found, found_far;
+  std::vector<float> d2, d2_far;
   std::vector<Pair> row;
   std::vector<float> cx, cy, cz;  // candidates of a block, by coordinate
   std::vector<int> cid;
@@ -80,6 +80,38 @@ float nearestOfOne(const LocalCloud& cloud, const pcl::search::Search<pcl::Point
   const float kth = w.row.empty() ? 0.f : std::sqrt(w.row[std::min<std::size_t>(w.row.size(), k) - 1].first);
   storeRow(w.row, k, i, table);
   return kth;
+}
+
+/// Keep `key` among the k smallest so far: keys[0, filled) sorted, filled <= k.
+inline void offerKey(std::uint64_t key, std::size_t k, std::uint64_t* keys, std::size_t& filled)
+{
+  if (filled == k && key >= keys[k - 1])
+    return;
+  std::size_t pos = filled < k ? filled++ : k - 1;
+  while (pos > 0 && keys[pos - 1] > key)
+  {
+    keys[pos] = keys[pos - 1];
+    --pos;
+  }
+  keys[pos] = key;
+}
+
+/// The k smallest (squared distance, index) keys of point i, q itself left out, into `keys` (sorted)
+/// from one radius query of `radius`, which must hold at least k other points (the caller knows k
+/// points that near). Returns the k-th distance (not squared).
+float nearestWithin(const LocalCloud& cloud, const pcl::search::Search<pcl::PointXYZ>& search, int k,
+                    std::ptrdiff_t i, double radius, Worker& w, std::uint64_t* keys)
+{
+  search.radiusSearch(cloud[i], radius, w.found_far, w.d2_far);
+  const std::size_t ku = static_cast<std::size_t>(k);
+  std::size_t filled = 0;
+  for (std::size_t j = 0; j < w.found_far.size(); ++j)
+  {
+    if (w.found_far[j] == i)
+      continue;
+    offerKey(pairKey(w.d2_far[j], w.found_far[j]), ku, keys, filled);
+  }
+  return std::sqrt(keyDistance(keys[filled - 1]));
 }
 
 /// The margin for the next block: the K-th distance that three quarters of this block's points
@@ -179,39 +211,41 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
       const float dx = q.x - w.cx[j], dy = q.y - w.cy[j], dz = q.z - w.cz[j];
       d2[j] = dx * dx + dy * dy + dz * dz;
     }
-    // Only candidates within `bound` can be among the k nearest when at least k others are: the
-    // previous point's k neighbours and that point itself lie within its k-th distance plus the
-    // step between the two. Collected without branches, then ranked; if fewer than k + 1 fall
-    // inside (rounding), every candidate is ranked. Either way the result is the k smallest keys.
+    // Only candidates within a bound can be among the k nearest when at least k others are (q
+    // itself is inside every bound): the previous point's k neighbours and that point itself lie
+    // within its k-th distance plus the step between the two. Collected without branches, then
+    // ranked; if fewer than k + 1 fall inside (rounding), every candidate is ranked. Either way
+    // the result is the k smallest keys.
     std::size_t inside = m;
     if (prev >= 0)
     {
+      // First a guess a little past the previous k-th distance (neighbouring points have similar
+      // ones), which holds ~1.3 k candidates; when fewer than k others fall inside it, the sure
+      // bound: the previous k-th distance plus the step.
       const float step = (q.getVector3fMap() - cloud[prev].getVector3fMap()).norm();
-      const float b = (prev_kth + step) * 1.0001f;
-      const float bound = b * b;
+      const float guess = prev_kth * 1.15f, sure = (prev_kth + step) * 1.0001f;
       std::uint32_t* sel = w.sel.data();
-      std::size_t c = 0;
-      for (std::size_t j = 0; j < m; ++j)
+      for (const float b : {guess, sure})
       {
-        sel[c] = static_cast<std::uint32_t>(j);
-        c += d2[j] <= bound ? 1 : 0;
+        const float bound = b * b;
+        std::size_t c = 0;
+        for (std::size_t j = 0; j < m; ++j)
+        {
+          sel[c] = static_cast<std::uint32_t>(j);
+          c += d2[j] <= bound ? 1 : 0;
+        }
+        if (c > ku)
+        {
+          inside = c;
+          break;
+        }
+        if (guess >= sure)
+          break;
       }
-      if (c > ku)
-        inside = c;
     }
     auto consider = [&](std::size_t j) {
-      const std::uint64_t key = pairKey(d2[j], w.cid[j]);
-      if (filled == ku && key >= keys[ku - 1])
-        return;
-      if (w.cid[j] == i)
-        return;
-      std::size_t pos = filled < ku ? filled++ : ku - 1;
-      while (pos > 0 && keys[pos - 1] > key)
-      {
-        keys[pos] = keys[pos - 1];
-        --pos;
-      }
-      keys[pos] = key;
+      if (w.cid[j] != i)
+        offerKey(pairKey(d2[j], w.cid[j]), ku, keys, filled);
     };
     if (inside < m)
       for (std::size_t s = 0; s < inside; ++s)
@@ -219,10 +253,22 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
     else
       for (std::size_t j = 0; j < m; ++j)
         consider(j);
-    const float kth = filled ? keyDistance(keys[filled - 1]) : 0.f;
-    if (filled < ku || !(static_cast<double>(std::sqrt(kth)) <= reach))
+    float kth = filled ? keyDistance(keys[filled - 1]) : 0.f;
+    if (filled < ku)
     {
       w.kth.push_back(nearestOfOne(cloud, search, k, i, w, table));
+      continue;
+    }
+    if (!(static_cast<double>(std::sqrt(kth)) <= reach))
+    {
+      // q's k-th neighbour may lie outside the gathered ball, but no farther than the k-th of the
+      // candidates: one radius query that far holds every point of the k nearest (ties at that
+      // distance included), ranked the same way. The block's candidates stay as they are.
+      kth = nearestWithin(cloud, search, k, i, std::sqrt(static_cast<double>(kth)) * (1.0 + 1e-5), w, keys);
+      w.kth.push_back(kth);
+      prev = i;
+      prev_kth = kth;
+      unpackKeys(keys, ku, table.indices.data() + i * k, table.sqr_distances.data() + i * k);
       continue;
     }
     w.kth.push_back(std::sqrt(kth));
