@@ -105,45 +105,66 @@ RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d&
     sol.x_min = ev.minimum.x;
   };
 
-  // E grows roughly like a power of r: steps and interpolation are made in log-log space, which
-  // lands near E = tolerance in a few evaluations; the bracket keeps the search safe where E is
-  // not monotone.
+  // E grows roughly like a power of r (like r² on a smooth surface): each probe aims at the radius
+  // where a log-log model through what is known predicts E = tolerance, and once a probe lands
+  // near that radius the next one is placed to close the bracket from the other side (a pass just
+  // below a fail, 2% apart) rather than creeping towards it from one side. The bracket keeps the
+  // search safe where E is not monotone; the largest radius found with E <= tolerance is kept.
+  constexpr double kTight = 0.98;  // done when lo >= kTight × hi
   double lo = -1.0, hi = -1.0, e_lo = 0.0, e_hi = 0.0;
+  bool last_passed = false;
   // Evaluate r and move the matching end of the bracket; true when E(r) <= tolerance.
   auto probe = [&](double r) {
     const RadiusEvaluation ev = eval(r);
-    if (ev.error <= tolerance)
+    last_passed = ev.error <= tolerance;
+    if (last_passed)
     {
       accept(ev);
       lo = r;
       e_lo = ev.error;
-      return true;
     }
-    hi = r;
-    e_hi = ev.error;
-    return false;
-  };
-  const double start = std::min(std::max(guess, floor), cap);
-  if (probe(start))
-  {
-    // Grow until E exceeds the tolerance or the cap is reached (E ~ r² predicts the step).
-    while (lo < cap)
+    else
     {
-      const double step = e_lo > 0.0 ? std::sqrt(tolerance / e_lo) : 2.0;
-      if (!probe(std::min(lo * std::min(std::max(step, 1.1), 2.0), cap)))
-        break;
+      hi = r;
+      e_hi = ev.error;
     }
+    return last_passed;
+  };
+  // The radius where E would meet the tolerance if E ~ r^2 from the point (r, e).
+  auto predictFrom = [&](double r, double e) { return e > 0.0 ? r * std::sqrt(tolerance / e) : 2.0 * r; };
+
+  const double start = std::min(std::max(guess, floor), cap);
+  if (!probe(start))
+  {
+    if (!(start > floor))
+      return sol;  // even the smallest ball is too coarse here: keep the centre alone
+    // Too large: try where the model puts the root (just below it), then the floor.
+    const double aim = std::max(floor, predictFrom(start, e_hi) * 0.99);
+    if (!(aim > floor && aim < start && probe(aim)) && !(hi > floor && probe(floor)))
+      return sol;
   }
-  else if (!(start > floor && probe(floor)))
-    return sol;  // even the smallest ball is too coarse here: keep the centre alone
-  // Refine between the last good and the first bad radius (to 2%); keep the largest good one.
-  for (int it = 0; hi > 0.0 && hi - lo > 0.02 * hi && it < 10; ++it)
+  // Grow until E exceeds the tolerance or the cap is reached.
+  while (hi < 0.0 && lo < cap)
+  {
+    const double step = std::min(std::max(predictFrom(lo, e_lo) / lo, 1.1), 2.0);
+    probe(std::min(lo * step, cap));
+  }
+  // Refine between the last good and the first bad radius (to 2%).
+  for (int it = 0; hi > 0.0 && lo < kTight * hi && it < 10; ++it)
   {
     double theta = 0.5;
     if (e_lo > 0.0 && e_hi > e_lo)
       theta = std::log(tolerance / e_lo) / std::log(e_hi / e_lo);
-    theta = std::min(std::max(theta, 0.15), 0.85);
-    probe(lo * std::pow(hi / lo, theta));
+    const double predicted = lo * std::pow(hi / lo, std::min(std::max(theta, 0.0), 1.0));
+    double r;
+    if (last_passed && predicted < lo / kTight)
+      r = lo / kTight * 0.999;  // the root is just above the pass: a fail here closes the bracket
+    else if (!last_passed && predicted > kTight * hi)
+      r = kTight * hi * 1.001;  // the root is just below the fail: a pass here closes it
+    else
+      r = predicted;
+    const double ratio = std::log(r / lo) / std::log(hi / lo);
+    probe(lo * std::pow(hi / lo, std::min(std::max(ratio, 0.1), 0.9)));
   }
   return sol;
 }
