@@ -18,15 +18,17 @@ namespace pcl_ecs
 
 namespace
 {
-/// Candidates of one ball: the non-feature points of a radius search, grown on demand.
+/// Candidates of one ball: the non-feature points of a radius search, grown on demand. A larger
+/// query appends only the shell it adds (points past the previous query's radius): those held
+/// keep their place, and the solver their planes.
 class RadiusQuerySource : public CandidateSource
 {
 public:
   RadiusQuerySource(const pcl::search::Search<pcl::PointXYZ>& search,
                     const std::vector<std::uint8_t>& is_feature, const pcl::PointXYZ& centre,
-                    double max_radius, double first_radius)
+                    double max_radius, double first_radius, pcl::Indices& found, std::vector<float>& d2)
     : search_(search), is_feature_(is_feature), centre_(centre), max_radius_(max_radius),
-      next_radius_(first_radius)
+      next_radius_(first_radius), found_(found), d2_(d2)
   {
   }
 
@@ -34,18 +36,26 @@ public:
   {
     if (needed <= queried_)
       return false;
-    double radius = std::min(max_radius_, std::max(needed, next_radius_));
+    const double radius = std::min(max_radius_, std::max(needed, next_radius_));
     search_.radiusSearch(centre_, radius, found_, d2_);
-    candidates.clear();
-    candidates.reserve(found_.size());
+    if (queried_ < 0.0)
+      candidates.clear();
+    const std::size_t before = candidates.size();
+    // A point is within a query when its squared distance, as the search computes it in float,
+    // is <= the float square of the radius: the points past held_r2_ are exactly the new ones.
     for (std::size_t i = 0; i < found_.size(); ++i)
-      if (!is_feature_[static_cast<std::size_t>(found_[i])])
+      if (d2_[i] > held_r2_ && !is_feature_[static_cast<std::size_t>(found_[i])])
         candidates.push_back({std::sqrt(static_cast<double>(d2_[i])), found_[i]});
+    held_r2_ = static_cast<float>(radius * radius);
     // Anything at or below the radius asked for is complete; tell the solver so.
     queried_ = radius >= max_radius_ ? std::numeric_limits<double>::infinity() : radius;
-    next_radius_ = 1.5 * radius;
-    return true;
+    next_radius_ = kGrowth * radius;
+    return candidates.size() != before;
   }
+
+  /// A query that falls short grows to at least this multiple of its radius (only the shell is
+  /// new work, so the first query can be tight: the kernel's support 2r at the guessed r).
+  static constexpr double kGrowth = 1.3;
 
 private:
   const pcl::search::Search<pcl::PointXYZ>& search_;
@@ -54,8 +64,9 @@ private:
   double max_radius_;
   double next_radius_;
   double queried_ = -1.0;
-  pcl::Indices found_;
-  std::vector<float> d2_;
+  float held_r2_ = -1.0f;
+  pcl::Indices& found_;
+  std::vector<float>& d2_;
 };
 }  // namespace
 
@@ -65,6 +76,8 @@ namespace
 struct Scratch
 {
   std::vector<BallCandidate> candidates;
+  pcl::Indices found;  // radius query results, reused
+  std::vector<float> d2;
   std::vector<Eigen::Vector3d> offsets;
   std::vector<int> members;
   std::vector<std::uint8_t> inside;
@@ -89,7 +102,7 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
   // multiple of the mean neighbourhood radius.
   const QuadricSamples samples{in.cloud, in.normals, in.weights};
   const double guess = std::max(w.typical_radius, in.density[cs]);
-  RadiusQuerySource source(in.search, in.is_feature, in.cloud[c], 2.0 * cap, 2.0 * 1.25 * guess);
+  RadiusQuerySource source(in.search, in.is_feature, in.cloud[c], 2.0 * cap, 2.0 * guess, w.found, w.d2);
   w.candidates.clear();
   const RadiusSolution sol = solveRadius(samples, centre, in.density[cs], cap, guess,
                                          ball.tolerance, in.bbox_diagonal, params.error_form,

@@ -17,10 +17,11 @@ double errorOf(const QuadricMinimum& minimum, double weight_sum, double L, Error
 }
 
 void candidatePlanes(const QuadricSamples& samples, const Eigen::Vector3d& centre,
-                     const std::vector<BallCandidate>& candidates, std::vector<CandidatePlane>& planes)
+                     const std::vector<BallCandidate>& candidates, std::vector<CandidatePlane>& planes,
+                     std::size_t first)
 {
   planes.resize(candidates.size());
-  for (std::size_t i = 0; i < candidates.size(); ++i)
+  for (std::size_t i = first; i < candidates.size(); ++i)
   {
     const auto j = static_cast<std::size_t>(candidates[i].index);
     const Eigen::Vector3d n = samples.normals[j].cast<double>();
@@ -92,8 +93,11 @@ RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d&
   thread_local std::vector<CandidatePlane> planes;  // kept from ball to ball: no allocation each
   planes.clear();
   auto eval = [&](double r) {
-    if (source.ensure(2.0 * r, candidates) || planes.size() != candidates.size())
-      candidatePlanes(samples, centre, candidates, planes);
+    // Candidates only grow (see CandidateSource): the planes of those held already stay valid.
+    source.ensure(2.0 * r, candidates);
+    if (planes.size() != candidates.size())
+      candidatePlanes(samples, centre, candidates, planes,
+                      planes.size() < candidates.size() ? planes.size() : 0);
     ++sol.evaluations;
     return evaluateRadius(planes, r, L, form);
   };

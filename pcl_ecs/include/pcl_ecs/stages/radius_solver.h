@@ -63,9 +63,11 @@ struct CandidatePlane
   double terms[12];  // the last is padding (0): whole SIMD pairs
 };
 
-/** \brief The planes of `candidates`, in the same order. */
+/** \brief The planes of `candidates`, in the same order; those before `first` are taken as
+ * computed already (a source that appended candidates). */
 void candidatePlanes(const QuadricSamples& samples, const Eigen::Vector3d& centre,
-                     const std::vector<BallCandidate>& candidates, std::vector<CandidatePlane>& planes);
+                     const std::vector<BallCandidate>& candidates, std::vector<CandidatePlane>& planes,
+                     std::size_t first = 0);
 
 /** \brief Evaluate eq. 13-14 at radius r (> 0) over the `planes` within 2r. */
 RadiusEvaluation evaluateRadius(const std::vector<CandidatePlane>& planes, double r, double L,
@@ -87,7 +89,9 @@ struct RadiusSolution
 
 /** \brief Called when the solver needs candidates out to `needed_query_radius`: it must make
  * `candidates` hold every non-feature point within that distance (in any order that is the same
- * from run to run: sums over them are made in that order), and return true when it changed them. */
+ * from run to run: sums over them are made in that order), and return true when it changed them.
+ * Candidates only grow: those held stay in place and new ones are appended (the solver keeps
+ * what it derived from the first ones). */
 struct CandidateSource
 {
   virtual ~CandidateSource() = default;
