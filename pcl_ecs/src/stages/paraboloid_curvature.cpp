@@ -85,7 +85,8 @@ bool householderLeastSquares(double (*a)[256], double* z, int rows, int cols, do
 /// pivot is at least 1e-10 of the largest diagonal entry of AᵀA, i.e. A's columns are far from
 /// dependent (condition number below ~1e5): there the normal equations lose at most ~1e-6 of
 /// the curvature's relative accuracy, and near-degenerate neighbourhoods get the QR's rank test.
-bool normalEquations(const double (*a)[256], const double* z, int rows, int cols, double* x)
+template <int cols>
+bool normalEquations(const double (*a)[256], const double* z, int rows, double* x)
 {
   double m[5][5] = {}, r[5] = {};
   for (int i = 0; i < rows; ++i)
@@ -174,8 +175,11 @@ double paraboloidMeanCurvature(const Eigen::Vector3d& centre, const Eigen::Vecto
   if (rows < cols)
     return 0.0;
   double coef[5];
-  if (!normalEquations(a, z, rows, cols, coef) &&            // eq. 9, well conditioned: fast
-      !householderLeastSquares(a, z, rows, cols, coef))  // otherwise: stable, with a rank test
+  // Eq. 9, well conditioned: the normal equations (the column count fixed at compile time, so the
+  // small loops unroll); otherwise the QR, stable, with a rank test.
+  const bool solved = cols == 3 ? normalEquations<3>(a, z, rows, coef) : normalEquations<5>(a, z, rows, coef);
+  if (!solved &&
+      !householderLeastSquares(a, z, rows, cols, coef))
     return 0.0;
   const double ca = coef[0], cb = coef[1], cc = coef[2];
   if (cols == 3)
