@@ -228,28 +228,33 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
       const std::size_t a = static_cast<std::size_t>(axis);
       auto first = ids.begin() + static_cast<std::ptrdiff_t>(j.begin);
       auto last = ids.begin() + static_cast<std::ptrdiff_t>(j.end);
-      std::sort(first, last, [&](std::uint32_t x, std::uint32_t y) {
-        return sample[x][a] < sample[y][a] || (sample[x][a] == sample[y][a] && x < y);
-      });
       // Split into the fewest tiles that respect the bound, as evenly as possible: a tile count m
       // splits m / 2 : m - m / 2 (not always in halves, which would leave tiles at half the bound).
       const std::size_t m = std::max<std::size_t>(
           {2, (count + max_core - 1) / max_core, (load + max_load - 1) / max_load});
-      mid = j.begin + count * (m / 2) / m;
-      value = sample[ids[mid]][a];
-      // Everything below `value` goes left: move mid to the first sample at value.
-      while (mid > j.begin && sample[ids[mid - 1]][a] == value)
-        --mid;
+      const std::size_t k = j.begin + count * (m / 2) / m;
+      // The sample at rank k (by coordinate, then index: a total order, so the same sample
+      // whatever the algorithm); a selection, not a sort: linear in the part's size.
+      std::nth_element(first, ids.begin() + static_cast<std::ptrdiff_t>(k), last, [&](std::uint32_t x, std::uint32_t y) {
+        return sample[x][a] < sample[y][a] || (sample[x][a] == sample[y][a] && x < y);
+      });
+      value = sample[ids[k]][a];
+      // Everything below `value` goes left.
+      mid = static_cast<std::size_t>(
+          std::partition(first, last, [&](std::uint32_t x) { return sample[x][a] < value; }) - ids.begin());
       if (mid == j.begin)
       {
-        // The lower half is one value: split just above it instead.
-        mid = j.begin + count * (m / 2) / m;
-        while (mid < j.end && sample[ids[mid]][a] == value)
-          ++mid;
+        // The lower part is one value: split just above it instead.
+        mid = static_cast<std::size_t>(
+            std::partition(first, last, [&](std::uint32_t x) { return sample[x][a] <= value; }) - ids.begin());
         if (mid == j.end)
           split = false;
         else
-          value = sample[ids[mid]][a];
+        {
+          value = inf;
+          for (std::size_t i = mid; i < j.end; ++i)
+            value = std::min(value, sample[ids[i]][a]);
+        }
       }
     }
     KdNode& node = tree.nodes[static_cast<std::size_t>(j.node)];
