@@ -230,10 +230,15 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
       return static_cast<double>(balls);
     };
     const double lowest = 1e-12, highest = 0.999;
+    // Where a search found the count saturated (the same at T and 4 T: every ball at the cap), per
+    // cap: a later search at that cap (a wider gap bound) that starts at or above that T with too
+    // many balls is saturated too, and need not probe 4 T again.
+    double saturated_cap = -1.0, saturated_terr = highest;
     const double tol = 0.01 * target;
     // One search at the current cap: bracket T (×4 steps), then interpolate in log-log (the count
-    // falls about like a power of T) inside the bracket. A count that stops changing while T moves
-    // by 4× means the radius cap (or the point count), not T, sets it: this cap cannot do better.
+    // falls about like a power of T) inside the bracket. A count that changes by less than the
+    // tolerance while T moves by 4× means the radius cap (or the point count), not T, sets it:
+    // this cap cannot do better.
     auto search = [&]() {
       const double before = best_distance;
       fewest = std::numeric_limits<std::size_t>::max();
@@ -244,6 +249,8 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
       double b_lo = attempt(lo), b_hi = b_lo;
       if (std::abs(b_lo - balls_wanted) <= tol)
         return best_distance < before;
+      if (b_lo > balls_wanted && cover_params.radius_cap_factor == saturated_cap && lo >= saturated_terr)
+        return best_distance < before;
       if (b_lo > balls_wanted)
       {
         while (b_hi > balls_wanted && hi < highest && best_distance > tol)
@@ -252,8 +259,13 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
           b_lo = b_hi;
           hi = std::min(hi * 4.0, highest);
           b_hi = attempt(hi);
-          if (b_hi >= b_lo)
+          // Saturated: T × 4 removed fewer balls than the tolerance (every ball near the cap).
+          if (b_hi > b_lo - tol)
+          {
+            saturated_cap = cover_params.radius_cap_factor;
+            saturated_terr = lo;
             return best_distance < before;
+          }
         }
         if (b_hi > balls_wanted)
           return best_distance < before;
@@ -302,6 +314,31 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
       }
       return best_distance < before;
     };
+    // The gap bound widens by steps of 1.1. Once two searches at one cap have seen how the gap
+    // points fall as the bound widens (about exponentially), several steps are taken at once: as
+    // many as that trend says still leave at least the excess of gap points (never past the
+    // bound it predicts, so the result is the one single steps would reach when the trend holds).
+    struct GapTrial
+    {
+      double cap, gap, gaps, excess;
+    };
+    std::vector<GapTrial> gap_trials;
+    auto widenGap = [&](bool gaps_bind) {
+      if (!gaps_bind)
+        return 1.1;
+      gap_trials.push_back({cover_params.radius_cap_factor, gap_factor, static_cast<double>(fewest_gaps),
+                            static_cast<double>(fewest) - balls_wanted});
+      const std::size_t t = gap_trials.size();
+      if (t < 2 || gap_trials[t - 2].cap != gap_trials[t - 1].cap)
+        return 1.1;
+      const GapTrial &a = gap_trials[t - 2], &b = gap_trials[t - 1];
+      if (!(a.gaps > b.gaps && b.gaps > 0.0 && b.gap > a.gap && b.excess > 0.0 && b.gaps > b.excess))
+        return 1.1;
+      const double slope = std::log(b.gaps / a.gaps) / (b.gap - a.gap);  // < 0
+      const double needed = b.gap + std::log((b.gaps - b.excess) / b.gaps) / slope;
+      const double steps = std::floor(std::log(needed / b.gap) / std::log(1.1));
+      return std::pow(1.1, std::min(8.0, std::max(1.0, steps)));
+    };
     search();
     while (best_distance > tol)
     {
@@ -314,7 +351,7 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
                              static_cast<double>(fewest_gaps) >= static_cast<double>(fewest) - balls_wanted;
       if (gap_factor > 0.0 && gap_factor < cover_params.radius_cap_factor &&
           (gaps_bind || !(cover_params.radius_cap_factor < params.radius_cap_factor)))
-        gap_factor = std::min(cover_params.radius_cap_factor, 1.1 * gap_factor);
+        gap_factor = std::min(cover_params.radius_cap_factor, gap_factor * widenGap(gaps_bind));
       else if (cover_params.radius_cap_factor < params.radius_cap_factor)
       {
         cover_params.radius_cap_factor = std::min(params.radius_cap_factor, 1.5 * cover_params.radius_cap_factor);
