@@ -4,7 +4,6 @@
 #include <pcl_ecs/io/pcd_stream.h>
 #include <pcl_ecs/neighborhood.h>
 #include <pcl_ecs/search/box_tree_search.h>
-#include <pcl_ecs/search/nanoflann_search.h>
 #include <pcl_ecs/spatial_order.h>
 #include <pcl_ecs/stages/ball_cover.h>
 #include <pcl_ecs/stages/density_weights.h>
@@ -629,18 +628,24 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
   // Neighbourhood size from the sample: the j-th sample neighbour at distance r_j means the K-th
   // neighbour of the full cloud at about r_j sqrt(K f / j) (a surface: counts grow with r²).
   const Eigen::Vector3d origin = 0.5 * (lo + hi);
+  const int threads = resolveThreads(params_.threads);
+  // The sample in Morton order behind the box tree (built in one parallel pass); the queries
+  // below return distances only, which do not depend on the order or the back end.
+  std::vector<int> morton(sample.size());
+  std::iota(morton.begin(), morton.end(), 0);
+  sortByMortonCode(
+      morton, [&](int i) { return sample[static_cast<std::size_t>(i)]; }, lo, hi, threads);
   auto local = std::make_shared<LocalCloud>();
   local->resize(sample.size());
   for (std::size_t i = 0; i < sample.size(); ++i)
-    (*local)[i].getVector3fMap() = (sample[i] - origin).cast<float>();
-  NanoflannSearch tree;
+    (*local)[i].getVector3fMap() = (sample[static_cast<std::size_t>(morton[i])] - origin).cast<float>();
+  BoxTreeSearch tree(false, threads);
   tree.setInputCloud(local);
   const int j = fraction >= 1.0 ? k : std::min<int>(8, static_cast<int>(sample.size()) - 1);
   const double scale = fraction >= 1.0 ? 1.0 : std::sqrt(static_cast<double>(k) * fraction / j);
   // Every stride-th sample point is asked (at most ~100k queries).
   const std::size_t stride = std::max<std::size_t>(1, sample.size() / 100000);
   std::vector<double> rk((sample.size() + stride - 1) / stride);
-  const int threads = resolveThreads(params_.threads);
 #pragma omp parallel num_threads(threads)
   {
     pcl::Indices idx;
@@ -648,7 +653,10 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
 #pragma omp for schedule(static)
     for (std::ptrdiff_t q = 0; q < static_cast<std::ptrdiff_t>(rk.size()); ++q)
     {
-      tree.nearestKSearch((*local)[static_cast<std::size_t>(q) * stride], j + 1, idx, d2);
+      const pcl::PointXYZ at{static_cast<float>(sample[static_cast<std::size_t>(q) * stride][0] - origin[0]),
+                             static_cast<float>(sample[static_cast<std::size_t>(q) * stride][1] - origin[1]),
+                             static_cast<float>(sample[static_cast<std::size_t>(q) * stride][2] - origin[2])};
+      tree.nearestKSearch(at, j + 1, idx, d2);
       rk[static_cast<std::size_t>(q)] = d2.empty() ? 0.0 : std::sqrt(static_cast<double>(d2.back())) * scale;
     }
   }
