@@ -13,6 +13,26 @@
 
 using namespace pcl_ecs_test;
 
+namespace
+{
+/// Brute force: the k smallest (squared distance, index) pairs of point i, itself left out, the
+/// squared distances computed in float as the searches compute them.
+std::vector<std::pair<float, int>> bruteForceNearest(const Cloud& cloud, std::size_t i, int k)
+{
+  std::vector<std::pair<float, int>> all;
+  for (std::size_t j = 0; j < cloud.size(); ++j)
+    if (j != i)
+    {
+      const pcl::PointXYZ &a = cloud[i], &b = cloud[j];
+      const float dx = a.x - b.x, dy = a.y - b.y, dz = a.z - b.z;
+      all.emplace_back(dx * dx + dy * dy + dz * dz, static_cast<int>(j));
+    }
+  std::partial_sort(all.begin(), all.begin() + k, all.end());
+  all.resize(static_cast<std::size_t>(k));
+  return all;
+}
+}  // namespace
+
 TEST(Neighborhood, MatchesBruteForceAndExcludesSelf)
 {
   Rng rng(3);
@@ -83,16 +103,7 @@ TEST(Neighborhood, ExactOnTiesDuplicatesAndOutliers)
   const int k = 16;
   std::vector<std::vector<std::pair<float, int>>> expected(cloud->size());
   for (std::size_t i = 0; i < cloud->size(); ++i)
-  {
-    for (std::size_t j = 0; j < cloud->size(); ++j)
-      if (j != i)
-      {
-        const pcl::PointXYZ &a = (*cloud)[i], &b = (*cloud)[j];
-        const float dx = a.x - b.x, dy = a.y - b.y, dz = a.z - b.z;
-        expected[i].emplace_back(dx * dx + dy * dy + dz * dz, static_cast<int>(j));
-      }
-    std::partial_sort(expected[i].begin(), expected[i].begin() + k, expected[i].end());
-  }
+    expected[i] = bruteForceNearest(*cloud, i, k);
   pcl_ecs::NanoflannSearch nano;
   nano.setInputCloud(cloud);
   pcl::search::KdTree<pcl::PointXYZ> flann;
@@ -134,18 +145,9 @@ TEST(Neighborhood, ExactFarFromTheOrigin)
   pcl_ecs::NeighborhoodTable table;
   ASSERT_EQ(pcl_ecs::computeNeighborhoods(*cloud, nano, k, 2, table), pcl_ecs::Status::Ok);
   std::size_t wrong = 0;
-  std::vector<std::pair<float, int>> all;
   for (std::size_t i = 0; i < cloud->size(); ++i)
   {
-    all.clear();
-    for (std::size_t j = 0; j < cloud->size(); ++j)
-      if (j != i)
-      {
-        const pcl::PointXYZ &a = (*cloud)[i], &b = (*cloud)[j];
-        const float dx = a.x - b.x, dy = a.y - b.y, dz = a.z - b.z;
-        all.emplace_back(dx * dx + dy * dy + dz * dz, static_cast<int>(j));
-      }
-    std::partial_sort(all.begin(), all.begin() + k, all.end());
+    const auto all = bruteForceNearest(*cloud, i, k);
     for (int j = 0; j < k; ++j)
       wrong += table.neighbors(i)[j] != all[static_cast<std::size_t>(j)].second ? 1 : 0;
   }
@@ -182,7 +184,9 @@ TEST(Neighborhood, ExactInMortonOrderWhereTheDensityJumps)
   const int k = 16;
   pcl_ecs::BoxTreeSearch boxes;
   boxes.setInputCloud(cloud);
-  std::vector<std::pair<float, int>> all;
+  std::vector<std::vector<std::pair<float, int>>> expected(cloud->size());
+  for (std::size_t i = 0; i < cloud->size(); ++i)
+    expected[i] = bruteForceNearest(*cloud, i, k);
   for (int threads : {1, 2})
   {
     pcl_ecs::NeighborhoodTable table;
@@ -190,15 +194,7 @@ TEST(Neighborhood, ExactInMortonOrderWhereTheDensityJumps)
     std::size_t wrong = 0;
     for (std::size_t i = 0; i < cloud->size(); ++i)
     {
-      all.clear();
-      for (std::size_t j = 0; j < cloud->size(); ++j)
-        if (j != i)
-        {
-          const pcl::PointXYZ &a = (*cloud)[i], &b = (*cloud)[j];
-          const float dx = a.x - b.x, dy = a.y - b.y, dz = a.z - b.z;
-          all.emplace_back(dx * dx + dy * dy + dz * dz, static_cast<int>(j));
-        }
-      std::partial_sort(all.begin(), all.begin() + k, all.end());
+      const auto& all = expected[i];
       for (int j = 0; j < k; ++j)
         wrong += table.neighbors(i)[j] != all[static_cast<std::size_t>(j)].second ||
                          table.sqrDistances(i)[j] != all[static_cast<std::size_t>(j)].first
