@@ -484,6 +484,23 @@ TEST(Filter, NoPointFartherThanTheGapFromTheOutput)
   }
 }
 
+// On the bunny at 10% the gap points keep the size out of reach at the target's cap, so the search
+// widens the gap bound; once two searches show how the gap points fall, it takes several ×1.1
+// steps at once, and a search at a cap already found saturated skips its 4T probe. The size is
+// still within 1%, the bound wider than the default, and the covers (deterministic) at most 11:
+// one ×1.1 step per search, each with its 4T probe, took 14.
+TEST(Filter, TargetSearchWidensTheGapInFewCovers)
+{
+  auto cloud = loadShared("bunny.pcd");
+  Filter f;
+  f.setTargetSize(3600);
+  const Cloud out = run(cloud, f);
+  const auto& s = f.getResult().summary;
+  EXPECT_NEAR(static_cast<double>(out.size()), 3600.0, 36.0);
+  EXPECT_GT(s.max_gap, 1.05 * 0.6 * s.radius_cap_factor * s.neighborhood_radius) << "the gap bound was widened";
+  EXPECT_LE(s.target_iterations, 11);
+}
+
 TEST(Filter, FeatureRepresentativeLabelsAndUtmCoordinates)
 {
   auto cloud = loadShared("terrain_csite1_utm.pcd");
