@@ -97,10 +97,10 @@ inline void offerKey(std::uint64_t key, std::size_t k, std::uint64_t* keys, std:
 }
 
 /// The k smallest (squared distance, index) keys of point i, q itself left out, into `keys` (sorted)
-/// from one radius query of `radius`, which must hold at least k other points (the caller knows k
-/// points that near). Returns the k-th distance (not squared).
-float nearestWithin(const LocalCloud& cloud, const pcl::search::Search<pcl::PointXYZ>& search, int k,
-                    std::ptrdiff_t i, double radius, Worker& w, std::uint64_t* keys)
+/// from one radius query of `radius`, which should hold at least k other points (the caller knows k
+/// points that near). Returns how many keys it found (k unless a back end rounds differently).
+std::size_t nearestWithin(const LocalCloud& cloud, const pcl::search::Search<pcl::PointXYZ>& search, int k,
+                          std::ptrdiff_t i, double radius, Worker& w, std::uint64_t* keys)
 {
   search.radiusSearch(cloud[i], radius, w.found_far, w.d2_far);
   const std::size_t ku = static_cast<std::size_t>(k);
@@ -111,7 +111,7 @@ float nearestWithin(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
       continue;
     offerKey(pairKey(w.d2_far[j], w.found_far[j]), ku, keys, filled);
   }
-  return std::sqrt(keyDistance(keys[filled - 1]));
+  return filled;
 }
 
 /// The margin for the next block: the K-th distance that three quarters of this block's points
@@ -264,7 +264,12 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
       // q's k-th neighbour may lie outside the gathered ball, but no farther than the k-th of the
       // candidates: one radius query that far holds every point of the k nearest (ties at that
       // distance included), ranked the same way. The block's candidates stay as they are.
-      kth = nearestWithin(cloud, search, k, i, std::sqrt(static_cast<double>(kth)) * (1.0 + 1e-5), w, keys);
+      if (nearestWithin(cloud, search, k, i, std::sqrt(static_cast<double>(kth)) * (1.0 + 1e-5), w, keys) < ku)
+      {
+        w.kth.push_back(nearestOfOne(cloud, search, k, i, w, table));
+        continue;
+      }
+      kth = std::sqrt(keyDistance(keys[ku - 1]));
       w.kth.push_back(kth);
       prev = i;
       prev_kth = kth;
