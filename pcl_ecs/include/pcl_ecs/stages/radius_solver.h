@@ -101,8 +101,10 @@ struct CandidateSource
 /** \brief Eq. 15 solved for r in [floor, cap].
  * The bracket starts at `guess` (clamped to [floor, cap]; a typical radius of recent balls saves
  * evaluations): if E(guess) <= tolerance it grows (by the step E ~ r² predicts, ×1.1 to ×2) until
- * E exceeds it or the cap is reached, otherwise the floor must pass. Interpolation in log E /
- * log r (clamped to the inner 70% of the bracket) then stops when the bracket is within 2%.
+ * E exceeds it or the cap is reached; otherwise the radius E ~ r² predicts (just below it) is
+ * tried, then the floor, which must pass. Interpolation in log E / log r (inside the inner 80% of
+ * the bracket; a probe that lands near the predicted root is followed by one just across it, to
+ * close the bracket from both sides) stops when the bracket is within 2%.
  * \param[in] floor   smallest radius tried (the distance to c's nearest non-feature neighbour)
  * \param[in] cap     largest radius allowed (> 0)
  * \param[in] guess   first radius tried (<= 0: the floor)
