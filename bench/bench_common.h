@@ -2,6 +2,7 @@
 // own (peak memory measured there), and the bisection of a method's parameter for a target size.
 #pragma once
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -12,7 +13,10 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
+
+#include <pcl_ecs/result.h>
 
 namespace pcl_ecs_bench
 {
@@ -27,6 +31,18 @@ inline double statusMiB(const char* key)
     if (line.rfind(key, 0) == 0)
       return std::stod(line.substr(std::strlen(key))) / 1024.0;
   return -1.0;
+}
+
+/// Keep in `least` each stage's least time of `least` and `run` (over repeated runs, the steadiest
+/// figure on a busy machine: load adds time, never removes it).
+inline void keepLeastStageTimes(pcl_ecs::StageTimings& least, const pcl_ecs::StageTimings& run)
+{
+  for (auto [mine, theirs] : {std::pair{&least.preparation, run.preparation}, {&least.neighbors, run.neighbors},
+                              {&least.normals, run.normals}, {&least.weights, run.weights},
+                              {&least.features, run.features}, {&least.density, run.density},
+                              {&least.curvature, run.curvature}, {&least.cover, run.cover},
+                              {&least.output, run.output}, {&least.total, run.total}})
+    *mine = std::min(*mine, theirs);
 }
 
 struct Measure

@@ -169,12 +169,7 @@ int main(int argc, char** argv)
   for (int r = 1; r < repeat; ++r)
   {
     run_ecs(terr);
-    const pcl_ecs::StageTimings& u = ecs.getResult().summary.timings;
-    for (auto [mine, theirs] : {std::pair{&t.preparation, u.preparation}, {&t.neighbors, u.neighbors},
-                                {&t.normals, u.normals}, {&t.weights, u.weights}, {&t.features, u.features},
-                                {&t.density, u.density}, {&t.curvature, u.curvature}, {&t.cover, u.cover},
-                                {&t.output, u.output}})
-      *mine = std::min(*mine, theirs);
+    keepLeastStageTimes(t, ecs.getResult().summary.timings);
   }
   const double leaf = searchParameter(L * 1e-5, L * 0.5, target, run_vg);
   const Measure m_vg = bestOfChildren(repeat, input_args, "voxel_grid", leaf);

@@ -1,11 +1,12 @@
 // quick_run: load a PCD, run the filter with T_err / α / cap from argv, print the summary.
+#include "bench_common.h"
+
 #include <pcl_ecs/feature_aware_cover_simplify.h>
 
 #include <cstdio>
 #include <cstdlib>
 #include <algorithm>
 #include <string>
-#include <utility>
 
 #include <pcl/io/pcd_io.h>
 
@@ -30,19 +31,13 @@ int main(int argc, char** argv)
   pcl::PointCloud<pcl::PointXYZ> out;
   f.filter(out);
   const auto& s = f.getResult().summary;
-  // With a repeat count, each stage's least time over that many runs (a busy machine adds, never
-  // subtracts: the least is the steadiest figure to compare two builds by).
+  // With a repeat count, each stage's least time over that many runs (to compare two builds by).
   pcl_ecs::StageTimings t = s.timings;
   const int repeat = argc > 8 ? std::max(1, std::atoi(argv[8])) : 1;
   for (int r = 1; r < repeat; ++r)
   {
     f.filter(out);
-    const auto& u = f.getResult().summary.timings;
-    for (auto [mine, theirs] : {std::pair{&t.preparation, u.preparation}, {&t.neighbors, u.neighbors},
-                                {&t.normals, u.normals}, {&t.weights, u.weights}, {&t.features, u.features},
-                                {&t.density, u.density}, {&t.curvature, u.curvature}, {&t.cover, u.cover},
-                                {&t.output, u.output}, {&t.total, u.total}})
-      *mine = std::min(*mine, theirs);
+    pcl_ecs_bench::keepLeastStageTimes(t, f.getResult().summary.timings);
   }
   std::printf("in %zu out %zu (%.2f%%) features %zu balls %zu fallbacks %zu T %.3g maxE %.3g "
               "spacing %.4g L %.4g iters %d evals/ball %.2f\n",

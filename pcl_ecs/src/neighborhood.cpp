@@ -254,28 +254,19 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
       for (std::size_t j = 0; j < m; ++j)
         consider(j);
     float kth = filled ? keyDistance(keys[filled - 1]) : 0.f;
-    if (filled < ku)
+    // q's k-th neighbour may lie outside the gathered ball, but no farther than the k-th of the
+    // candidates: one radius query that far holds every point of the k nearest (ties at that
+    // distance included), ranked the same way; the block's candidates stay as they are. Fewer
+    // than k candidates (or that query returning fewer than k others): q's own k-nearest search.
+    const bool far = filled == ku && !(static_cast<double>(std::sqrt(kth)) <= reach);
+    if (filled < ku ||
+        (far && nearestWithin(cloud, search, k, i, std::sqrt(static_cast<double>(kth)) * (1.0 + 1e-5), w, keys) < ku))
     {
       w.kth.push_back(nearestOfOne(cloud, search, k, i, w, table));
       continue;
     }
-    if (!(static_cast<double>(std::sqrt(kth)) <= reach))
-    {
-      // q's k-th neighbour may lie outside the gathered ball, but no farther than the k-th of the
-      // candidates: one radius query that far holds every point of the k nearest (ties at that
-      // distance included), ranked the same way. The block's candidates stay as they are.
-      if (nearestWithin(cloud, search, k, i, std::sqrt(static_cast<double>(kth)) * (1.0 + 1e-5), w, keys) < ku)
-      {
-        w.kth.push_back(nearestOfOne(cloud, search, k, i, w, table));
-        continue;
-      }
-      kth = std::sqrt(keyDistance(keys[ku - 1]));
-      w.kth.push_back(kth);
-      prev = i;
-      prev_kth = kth;
-      unpackKeys(keys, ku, table.indices.data() + i * k, table.sqr_distances.data() + i * k);
-      continue;
-    }
+    if (far)
+      kth = keyDistance(keys[ku - 1]);
     w.kth.push_back(std::sqrt(kth));
     prev = i;
     prev_kth = std::sqrt(kth);

@@ -11,7 +11,9 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
+#include <utility>
 
 #include <Eigen/Eigenvalues>
 #include <pcl_ecs/search/box_tree_search.h>
@@ -322,19 +324,18 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
     {
       double cap, gap, gaps, excess;
     };
-    std::vector<GapTrial> gap_trials;
+    std::optional<GapTrial> previous;  // the last widening's search, when the gap points bound it
     auto widenGap = [&](bool gaps_bind) {
       if (!gaps_bind)
         return 1.1;
-      gap_trials.push_back({cover_params.radius_cap_factor, gap_factor, static_cast<double>(fewest_gaps),
-                            static_cast<double>(fewest) - balls_wanted});
-      const std::size_t t = gap_trials.size();
-      if (t < 2 || gap_trials[t - 2].cap != gap_trials[t - 1].cap)
+      const GapTrial b{cover_params.radius_cap_factor, gap_factor, static_cast<double>(fewest_gaps),
+                       static_cast<double>(fewest) - balls_wanted};
+      const std::optional<GapTrial> a = std::exchange(previous, b);
+      if (!a || a->cap != b.cap)
         return 1.1;
-      const GapTrial &a = gap_trials[t - 2], &b = gap_trials[t - 1];
-      if (!(a.gaps > b.gaps && b.gaps > 0.0 && b.gap > a.gap && b.excess > 0.0 && b.gaps > b.excess))
+      if (!(a->gaps > b.gaps && b.gaps > 0.0 && b.gap > a->gap && b.excess > 0.0 && b.gaps > b.excess))
         return 1.1;
-      const double slope = std::log(b.gaps / a.gaps) / (b.gap - a.gap);  // < 0
+      const double slope = std::log(b.gaps / a->gaps) / (b.gap - a->gap);  // < 0
       const double needed = b.gap + std::log((b.gaps - b.excess) / b.gaps) / slope;
       const double steps = std::floor(std::log(needed / b.gap) / std::log(1.1));
       return std::pow(1.1, std::min(8.0, std::max(1.0, steps)));

@@ -635,10 +635,15 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
   std::iota(morton.begin(), morton.end(), 0);
   sortByMortonCode(
       morton, [&](int i) { return sample[static_cast<std::size_t>(i)]; }, lo, hi, threads);
+  auto toLocal = [&](const Eigen::Vector3d& p) {
+    pcl::PointXYZ q;
+    q.getVector3fMap() = (p - origin).cast<float>();
+    return q;
+  };
   auto local = std::make_shared<LocalCloud>();
   local->resize(sample.size());
   for (std::size_t i = 0; i < sample.size(); ++i)
-    (*local)[i].getVector3fMap() = (sample[static_cast<std::size_t>(morton[i])] - origin).cast<float>();
+    (*local)[i] = toLocal(sample[static_cast<std::size_t>(morton[i])]);
   BoxTreeSearch tree(false, threads);
   tree.setInputCloud(local);
   const int j = fraction >= 1.0 ? k : std::min<int>(8, static_cast<int>(sample.size()) - 1);
@@ -653,10 +658,7 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
 #pragma omp for schedule(static)
     for (std::ptrdiff_t q = 0; q < static_cast<std::ptrdiff_t>(rk.size()); ++q)
     {
-      const pcl::PointXYZ at{static_cast<float>(sample[static_cast<std::size_t>(q) * stride][0] - origin[0]),
-                             static_cast<float>(sample[static_cast<std::size_t>(q) * stride][1] - origin[1]),
-                             static_cast<float>(sample[static_cast<std::size_t>(q) * stride][2] - origin[2])};
-      tree.nearestKSearch(at, j + 1, idx, d2);
+      tree.nearestKSearch(toLocal(sample[static_cast<std::size_t>(q) * stride]), j + 1, idx, d2);
       rk[static_cast<std::size_t>(q)] = d2.empty() ? 0.0 : std::sqrt(static_cast<double>(d2.back())) * scale;
     }
   }
