@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <random>
+
 namespace
 {
 std::vector<Eigen::Vector2d> grid(int n)
@@ -62,4 +64,42 @@ TEST(HullCoverage, ProjectsOntoTheTangentPlane)
   for (int k = 1; k <= 8; ++k)
     EXPECT_EQ(inside[static_cast<std::size_t>(k)], 0);
   EXPECT_EQ(inside[9], 1);
+}
+
+// strictlyInsideHull skips the hull for points well inside the polygon of the points extreme in
+// eight directions; the answer must be that of the hull test on every point: random clouds
+// (discs, thin slivers, duplicates, points on the hull's edges) against the plain test.
+TEST(HullCoverage, ShortcutGivesThePlainHullTestsAnswer)
+{
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> uni(-1.0, 1.0);
+  for (int trial = 0; trial < 300; ++trial)
+  {
+    const int n = 3 + trial % 60;
+    const double squash = trial % 3 == 0 ? 1e-3 : 1.0;  // slivers
+    std::vector<Eigen::Vector2d> pts;
+    for (int i = 0; i < n; ++i)
+      pts.emplace_back(uni(rng), squash * uni(rng));
+    if (trial % 4 == 1)
+      pts.push_back(pts[0]);  // a duplicate
+    if (trial % 5 == 2)
+      pts.push_back(0.5 * (pts[1] + pts[2]));  // on a segment (sometimes a hull edge)
+    const double eps = trial % 2 ? 0.0 : 1e-9;
+    std::vector<std::uint8_t> inside;
+    pcl_ecs::strictlyInsideHull(pts, eps, inside);
+    // The plain test: every point against every hull edge.
+    const std::vector<int> hull = pcl_ecs::convexHull2D(pts);
+    for (std::size_t i = 0; i < pts.size(); ++i)
+    {
+      bool expected = !hull.empty();
+      for (std::size_t e = 0; e < hull.size() && expected; ++e)
+      {
+        const Eigen::Vector2d a = pts[static_cast<std::size_t>(hull[e])];
+        const Eigen::Vector2d b = pts[static_cast<std::size_t>(hull[(e + 1) % hull.size()])];
+        const Eigen::Vector2d d = (b - a).normalized();
+        expected = -d.y() * (pts[i].x() - a.x()) + d.x() * (pts[i].y() - a.y()) > eps;
+      }
+      EXPECT_EQ(inside[i] != 0, expected) << "trial " << trial << " point " << i;
+    }
+  }
 }

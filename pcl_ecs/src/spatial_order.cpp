@@ -1,6 +1,6 @@
 #include <pcl_ecs/spatial_order.h>
 
-#include "parallel_sort.h"
+#include "radix_sort.h"
 
 #include <algorithm>
 #include <cmath>
@@ -48,7 +48,9 @@ void sortByMortonCode(std::vector<int>& ids, const std::function<Eigen::Vector3d
   for (std::ptrdiff_t i = 0; i < count; ++i)
     keyed[static_cast<std::size_t>(i)] = {mortonCode(position(ids[static_cast<std::size_t>(i)]), lo, hi),
                                           ids[static_cast<std::size_t>(i)]};
-  sortWithThreads(keyed.begin(), keyed.end(), threads);  // (code, id) pairs are all distinct
+  // (code, id): by code, then ties by id, whatever the order of `ids`.
+  using Keyed = std::pair<std::uint64_t, int>;
+  radixSortThenTies(keyed, [](const Keyed& e) { return e.first; }, std::less<Keyed>());
   for (std::size_t i = 0; i < ids.size(); ++i)
     ids[i] = keyed[i].second;
 }

@@ -6,7 +6,7 @@
 #include <pcl_ecs/stages/radius_solver.h>
 #include <pcl_ecs/stages/seeded_order.h>
 
-#include "../parallel_sort.h"
+#include "../radix_sort.h"
 
 #include <algorithm>
 #include <cmath>
@@ -201,12 +201,28 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
   // can be made concurrently. The eight colours run one after another; inside a cell the centres
   // keep the seeded order. The result depends on the cells, never on the thread count.
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
   for (const int i : order)
+  {
     lo = lo.cwiseMin(in.cloud[i].getVector3fMap().cast<double>());
+    hi = hi.cwiseMax(in.cloud[i].getVector3fMap().cast<double>());
+  }
   const double side = std::max(2.0 * cap * 1.001, 1e-12);
+  // Cell coordinates packed into as few bits as the box needs (the sort below passes over the
+  // bits in use): colour, then x, y, z, most significant first.
+  constexpr double kMaxCell = 1048575.0;  // 2^20 - 1 per axis
+  int width[3];
+  for (int a = 0; a < 3; ++a)
+  {
+    const auto top = static_cast<std::uint64_t>(std::min((hi(a) - lo(a)) / side, kMaxCell));
+    width[a] = 0;
+    while ((top >> width[a]) != 0)
+      ++width[a];
+  }
+  const int colour_shift = width[0] + width[1] + width[2];
   struct Entry
   {
-    std::uint64_t cell;  // colour in the top 3 bits, then the cell coordinates
+    std::uint64_t cell;  // colour in the bits from colour_shift up, then the cell coordinates
     std::uint32_t rank;  // position in the seeded order
     int point;
   };
@@ -218,16 +234,16 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
   {
     const auto r = static_cast<std::size_t>(ri);
     const Eigen::Vector3d q = (in.cloud[order[r]].getVector3fMap().cast<double>() - lo) / side;
-    const std::uint64_t ix = static_cast<std::uint64_t>(std::min(q.x(), 1048575.0));
-    const std::uint64_t iy = static_cast<std::uint64_t>(std::min(q.y(), 1048575.0));
-    const std::uint64_t iz = static_cast<std::uint64_t>(std::min(q.z(), 1048575.0));
+    const std::uint64_t ix = static_cast<std::uint64_t>(std::min(q.x(), kMaxCell));
+    const std::uint64_t iy = static_cast<std::uint64_t>(std::min(q.y(), kMaxCell));
+    const std::uint64_t iz = static_cast<std::uint64_t>(std::min(q.z(), kMaxCell));
     const std::uint64_t colour = (ix & 1u) | ((iy & 1u) << 1) | ((iz & 1u) << 2);
-    entries[r] = {(colour << 60) | (ix << 40) | (iy << 20) | iz, static_cast<std::uint32_t>(r), order[r]};
+    entries[r] = {(colour << colour_shift) | (ix << (width[1] + width[2])) | (iy << width[2]) | iz,
+                  static_cast<std::uint32_t>(r), order[r]};
   }
-  // (cell, rank) pairs are all distinct: one order whatever the threads.
-  sortWithThreads(entries.begin(), entries.end(), threads, [](const Entry& a, const Entry& b) {
-    return a.cell < b.cell || (a.cell == b.cell && a.rank < b.rank);
-  });
+  // By cell; the entries are in rank order and the sort is stable: by (cell, rank), one order
+  // whatever the threads.
+  radixSortStable(entries, [](const Entry& e) { return e.cell; });
   // Cell boundaries, and where each colour starts.
   std::vector<std::size_t> cell_begin;
   for (std::size_t e = 0; e < entries.size(); ++e)
@@ -239,7 +255,7 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
   std::vector<std::size_t> colour_begin(9, cells);
   std::size_t next_colour = 0;
   for (std::size_t k = 0; k < cells; ++k)
-    while (next_colour <= (entries[cell_begin[k]].cell >> 60))
+    while (next_colour <= (entries[cell_begin[k]].cell >> colour_shift))
       colour_begin[next_colour++] = k;
 
   // Ball keys while running: cell index << 32 | index in the cell; renumbered at the end.

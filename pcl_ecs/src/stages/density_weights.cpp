@@ -1,19 +1,23 @@
 #include <pcl_ecs/stages/density_weights.h>
 
+#include <algorithm>
+#include <cstddef>
+
 namespace pcl_ecs
 {
 
-void computeDensityWeights(const NeighborhoodTable& table, std::vector<double>& weights)
+void computeDensityWeights(const NeighborhoodTable& table, std::vector<double>& weights, int threads)
 {
-  const std::size_t n = table.size();
-  weights.assign(n, 0.0);
-  for (std::size_t i = 0; i < n; ++i)
+  const auto n = static_cast<std::ptrdiff_t>(table.size());
+  weights.assign(table.size(), 0.0);
+#pragma omp parallel for num_threads(std::max(1, threads)) schedule(static)
+  for (std::ptrdiff_t i = 0; i < n; ++i)
   {
-    const float* d2 = table.sqrDistances(i);
+    const float* d2 = table.sqrDistances(static_cast<std::size_t>(i));
     double sum = 0.0;
     for (int j = 0; j < table.k; ++j)
       sum += d2[j];
-    weights[i] = sum / table.k;
+    weights[static_cast<std::size_t>(i)] = sum / table.k;
   }
 }
 

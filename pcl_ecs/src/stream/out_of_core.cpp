@@ -14,6 +14,8 @@
 #include <pcl_ecs/stages/paraboloid_curvature.h>
 #include <pcl_ecs/stages/seeded_order.h>
 
+#include "../radix_sort.h"
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -837,9 +839,7 @@ TileData Runner::loadTile(int t) const
   const std::size_t n = nc + nh;
   // Sorted by Morton code in the global box, ties by input index: the same order for a point
   // whichever tile loads it, so neighbour ties break the same way everywhere.
-  // (code, input index, position in the files) sorted by value: the keys are distinct (input
-  // indices are), so any sort gives the same order; sorting the keys themselves rather than
-  // indices into them keeps the comparisons in cache.
+  // The (code, input index) pairs are distinct (input indices are): one order.
   struct Key
   {
     std::uint64_t code, gid;
@@ -859,9 +859,8 @@ TileData Runner::loadTile(int t) const
     xyz.get(rec, pos[i].x(), pos[i].y(), pos[i].z());
     keys[i] = {mortonCode(pos[i], plan_.lo, plan_.hi), gid, static_cast<std::uint32_t>(i)};
   }
-  std::sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) {
-    return a.code < b.code || (a.code == b.code && a.gid < b.gid);
-  });
+  radixSortThenTies(keys, [](const Key& k) { return k.code; },
+                    [](const Key& a, const Key& b) { return a.gid < b.gid; });
   TileData d;
   d.cloud->resize(n);
   d.gid.resize(n);
@@ -936,7 +935,7 @@ void Runner::phaseA(int t)
   NormalList normals;
   estimateNormals(*d.cloud, table, tile_threads_, normals);
   std::vector<double> weights, measure, curvature;
-  computeDensityWeights(table, weights);
+  computeDensityWeights(table, weights, tile_threads_);
   computeFeatureMeasure(*d.cloud, normals, table, tile_threads_, measure);
   // Eq. 7-11 only for the own points: |H| enters through the centre's tolerance (step 5) and the
   // mean over all points, and centres are own points.
@@ -1110,11 +1109,17 @@ void Runner::phaseC(int t)
 
   // Points covered already: claims written by tiles of earlier colours (all finished).
   const int colour = plan_.tree.tiles[static_cast<std::size_t>(t)].colour;
-  std::vector<int> sources;
+  std::vector<std::uint8_t> is_source(plan_.tree.tiles.size(), 0);
   for (std::size_t i = 0; i < n; ++i)
-    sources.push_back(static_cast<int>(d.src_tile[i]));
-  std::sort(sources.begin(), sources.end());
-  sources.erase(std::unique(sources.begin(), sources.end()), sources.end());
+    if (d.src_tile[i] < is_source.size())
+      is_source[d.src_tile[i]] = 1;
+    else
+      failRun("tile " + std::to_string(t) + "'s halo names tile " + std::to_string(d.src_tile[i]) +
+              ", which does not exist: the scratch directory is damaged; remove it and run again");
+  std::vector<int> sources;  // the tiles this one holds points of, ascending
+  for (std::size_t s = 0; s < is_source.size(); ++s)
+    if (is_source[s])
+      sources.push_back(static_cast<int>(s));
   std::vector<std::uint8_t> pre_covered(n, 0);
   for (const int s : sources)
   {
@@ -1191,7 +1196,7 @@ void Runner::phaseC(int t)
   for (std::size_t s = 0; s < claims.size(); ++s)
     if (!claims[s].empty())
     {
-      std::sort(claims[s].begin(), claims[s].end());
+      radixSortStable(claims[s], [](std::uint32_t v) { return std::uint64_t{v}; });
       writeVectorAtomic(paths_.claims(static_cast<int>(s), t), claims[s]);
     }
   // Gap candidates for phase D: the tile's own non-feature points farther than the gap from every

@@ -12,7 +12,8 @@ namespace pcl_ecs
 
 /** \brief Eq. 1 for every point of the table. Units: squared local-frame units.
  * \param[in] table the K-neighbourhoods (squared distances are read directly)
- * \param[out] weights one a_i per point */
-void computeDensityWeights(const NeighborhoodTable& table, std::vector<double>& weights);
+ * \param[out] weights one a_i per point
+ * \param[in] threads worker threads (the values do not depend on it) */
+void computeDensityWeights(const NeighborhoodTable& table, std::vector<double>& weights, int threads = 1);
 
 }  // namespace pcl_ecs
