@@ -89,14 +89,14 @@ template <int cols>
 bool normalEquations(const double (*a)[256], const double* z, int rows, double* x)
 {
   double m[5][5] = {}, r[5] = {};
-  for (int i = 0; i < rows; ++i)
-    for (int p = 0; p < cols; ++p)
-    {
-      const double ap = a[p][i];
-      r[p] += ap * z[i];
-      for (int q = 0; q <= p; ++q)
-        m[p][q] += ap * a[q][i];
-    }
+  // Column by column: each entry is a dot product over contiguous rows (independent partial
+  // sums, which the compiler pairs into vector lanes).
+  for (int p = 0; p < cols; ++p)
+  {
+    r[p] = dotRange(a[p], z, 0, rows);
+    for (int q = 0; q <= p; ++q)
+      m[p][q] = dotRange(a[p], a[q], 0, rows);
+  }
   double largest = 0.0;
   for (int p = 0; p < cols; ++p)
     largest = std::max(largest, m[p][p]);

@@ -11,16 +11,26 @@
 namespace pcl_ecs
 {
 
+/** \brief The inner piece of G_1: exp(-8 t²), for 0 <= t <= 1/2. */
+inline double kernelInner(double t)
+{
+  return std::exp(-8.0 * t * t);
+}
+
+/** \brief The outer piece of G_1: (16/e²) (1 - t)⁴, for 1/2 < t <= 1. */
+inline double kernelOuter(double t)
+{
+  const double s = 1.0 - t;
+  return 16.0 * std::exp(-2.0) * s * s * s * s;
+}
+
 /** \brief G_σ(ρ) as a function of t = |ρ| / σ >= 0 (G_1(t)). */
 inline double kernelOfRatio(double t)
 {
   if (t <= 0.5)
-    return std::exp(-8.0 * t * t);
+    return kernelInner(t);
   if (t <= 1.0)
-  {
-    const double s = 1.0 - t;
-    return 16.0 * std::exp(-2.0) * s * s * s * s;
-  }
+    return kernelOuter(t);
   return 0.0;
 }
 
