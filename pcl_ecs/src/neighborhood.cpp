@@ -286,8 +286,9 @@ Status computeNeighborhoods(const LocalCloud& cloud, const pcl::search::Search<p
   if (n <= k)
     return Status::TooFewPoints;
   table.k = k;
-  table.indices.assign(static_cast<std::size_t>(n) * k, 0);
-  table.sqr_distances.assign(static_cast<std::size_t>(n) * k, 0.f);
+  // Every row is written below (by the thread that answers its block): no zeroing first.
+  table.indices.resize(static_cast<std::size_t>(n) * k);
+  table.sqr_distances.resize(static_cast<std::size_t>(n) * k);
   const std::ptrdiff_t blocks = (n + kBlock - 1) / kBlock;
 
 #pragma omp parallel num_threads(threads)

@@ -16,8 +16,9 @@ namespace pcl_ecs
 struct NeighborhoodTable
 {
   int k = 0;
-  std::vector<int> indices;            ///< size() * k entries, row i = neighbours of point i
-  std::vector<float> sqr_distances;    ///< same layout, squared distances
+  /// size() * k entries, row i = neighbours of point i (filled row by row by the parallel search)
+  std::vector<int, UninitialisedAllocator<int>> indices;
+  std::vector<float, UninitialisedAllocator<float>> sqr_distances;  ///< same layout, squared distances
 
   std::size_t size() const { return k > 0 ? indices.size() / static_cast<std::size_t>(k) : 0; }
   const int* neighbors(std::size_t i) const { return indices.data() + i * k; }
