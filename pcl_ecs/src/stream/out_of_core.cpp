@@ -60,6 +60,16 @@ double secondsSince(Clock::time_point t0)
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
+/// The process's resident memory now (0 when /proc cannot tell).
+std::uint64_t residentBytes()
+{
+  std::ifstream statm("/proc/self/statm");
+  std::uint64_t size = 0, resident = 0;
+  if (!(statm >> size >> resident))
+    return 0;
+  return resident * static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
+}
+
 [[noreturn]] void failRun(const std::string& what)
 {
   throw std::runtime_error(what);
@@ -512,7 +522,11 @@ private:
   void stepDone()
   {
 #ifdef __GLIBC__
-    ::malloc_trim(0);  // hand the finished tile's memory back: peak RSS stays that of two tiles
+    // Hand the finished tile's freed memory back once the process holds more than half the
+    // budget: peak RSS stays that of two tiles. Below that, the next tile reuses the pages
+    // without faulting them in again (trimming after every tile cost ~4% of the run in the kernel).
+    if (residentBytes() > memory_limit_ / 2)
+      ::malloc_trim(0);
 #endif
     const std::uint64_t done = ++steps_;
     if (options_.kill_after_steps && done >= options_.kill_after_steps)
