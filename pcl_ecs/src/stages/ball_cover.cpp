@@ -79,6 +79,7 @@ struct Scratch
   pcl::Indices found;  // radius query results, reused
   std::vector<float> d2;
   std::vector<Eigen::Vector3d> offsets;
+  std::vector<double> distances;  // |offset|, as the radius query measured it
   std::vector<int> members;
   std::vector<std::uint8_t> inside;
   double typical_radius = 0.0;  // first query guess; adapts to the balls of this worker's cell
@@ -121,17 +122,20 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
 
   // Members: the non-feature points within r (c among them, at distance 0).
   w.offsets.clear();
+  w.distances.clear();
   w.members.clear();
   for (const BallCandidate& cand : w.candidates)
   {
     if (cand.distance > sol.radius)
       continue;
     w.members.push_back(cand.index);
+    w.distances.push_back(cand.distance);
     w.offsets.push_back(in.cloud[cand.index].getVector3fMap().cast<double>() - centre);
   }
   if (std::find(w.members.begin(), w.members.end(), c) == w.members.end())
   {
     w.members.push_back(c);
+    w.distances.push_back(0.0);
     w.offsets.push_back(Eigen::Vector3d::Zero());
   }
 
@@ -150,7 +154,7 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
     Eigen::Vector3d nm = in.normals[static_cast<std::size_t>(w.members[m])].cast<double>();
     if (nm.dot(nc) < 0.0)
       nm = -nm;
-    const double weight = sol.radius > 0.0 ? kernelG(w.offsets[m].norm(), sol.radius) : 1.0;
+    const double weight = sol.radius > 0.0 ? kernelG(w.distances[m], sol.radius) : 1.0;
     normal_sum += weight * nm;
   }
   const double len = normal_sum.norm();
