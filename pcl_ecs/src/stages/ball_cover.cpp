@@ -230,29 +230,19 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
     int point;
   };
   const int threads = resolveThreads(params.threads);
-  // Each point's cell in cloud order (the points are read in sequence), then the entries in the
-  // seeded order.
-  std::vector<std::uint64_t> cell_of(n);
-  const auto points = static_cast<std::ptrdiff_t>(n);
-#pragma omp parallel for schedule(static) num_threads(threads)
-  for (std::ptrdiff_t i = 0; i < points; ++i)
-  {
-    const Eigen::Vector3d q = (in.cloud[i].getVector3fMap().cast<double>() - lo) / side;
-    // Clamped below too: points that are not centres may lie outside the centres' box.
-    const std::uint64_t ix = static_cast<std::uint64_t>(std::min(std::max(q.x(), 0.0), kMaxCell));
-    const std::uint64_t iy = static_cast<std::uint64_t>(std::min(std::max(q.y(), 0.0), kMaxCell));
-    const std::uint64_t iz = static_cast<std::uint64_t>(std::min(std::max(q.z(), 0.0), kMaxCell));
-    const std::uint64_t colour = (ix & 1u) | ((iy & 1u) << 1) | ((iz & 1u) << 2);
-    cell_of[static_cast<std::size_t>(i)] =
-        (colour << colour_shift) | (ix << (width[1] + width[2])) | (iy << width[2]) | iz;
-  }
   std::vector<Entry> entries(order.size());
   const auto centres = static_cast<std::ptrdiff_t>(order.size());
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (std::ptrdiff_t ri = 0; ri < centres; ++ri)
   {
     const auto r = static_cast<std::size_t>(ri);
-    entries[r] = {cell_of[static_cast<std::size_t>(order[r])], static_cast<std::uint32_t>(r), order[r]};
+    const Eigen::Vector3d q = (in.cloud[order[r]].getVector3fMap().cast<double>() - lo) / side;
+    const std::uint64_t ix = static_cast<std::uint64_t>(std::min(q.x(), kMaxCell));
+    const std::uint64_t iy = static_cast<std::uint64_t>(std::min(q.y(), kMaxCell));
+    const std::uint64_t iz = static_cast<std::uint64_t>(std::min(q.z(), kMaxCell));
+    const std::uint64_t colour = (ix & 1u) | ((iy & 1u) << 1) | ((iz & 1u) << 2);
+    entries[r] = {(colour << colour_shift) | (ix << (width[1] + width[2])) | (iy << width[2]) | iz,
+                  static_cast<std::uint32_t>(r), order[r]};
   }
   // By cell; the entries are in rank order and the sort is stable: by (cell, rank), one order
   // whatever the threads.
