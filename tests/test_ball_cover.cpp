@@ -23,7 +23,7 @@ struct CoverRun
   {
     const auto table = makeTable(cloud, params.k_neighbors);
     normals = makeNormals(cloud, table);
-    pcl_ecs::computeDensityWeights(table, weights);
+    pcl_ecs::computeDensityWeights(*cloud, table, weights);
     feature = is_feature.empty() ? std::vector<std::uint8_t>(cloud->size(), 0) : std::move(is_feature);
     tree.setInputCloud(cloud);
     pcl_ecs::computeLocalDensity(*cloud, table, feature, tree, 2, density);

@@ -17,7 +17,7 @@ TEST(DensityWeights, ExactOnAGrid)
   for (int k : {4, 8})
   {
     std::vector<double> w;
-    pcl_ecs::computeDensityWeights(makeTable(cloud, k), w);
+    pcl_ecs::computeDensityWeights(*cloud, makeTable(cloud, k), w);
     ASSERT_EQ(w.size(), cloud->size());
     const double expected = k == 4 ? h * h : 1.5 * h * h;
     for (int i = 1; i < n - 1; ++i)
@@ -30,7 +30,7 @@ TEST(DensityWeights, DenserRegionsGetSmallerWeights)
 {
   auto sparse = gridPlane(10, 0.2), dense = gridPlane(10, 0.1);
   std::vector<double> ws, wd;
-  pcl_ecs::computeDensityWeights(makeTable(sparse, 8), ws);
-  pcl_ecs::computeDensityWeights(makeTable(dense, 8), wd);
+  pcl_ecs::computeDensityWeights(*sparse, makeTable(sparse, 8), ws);
+  pcl_ecs::computeDensityWeights(*dense, makeTable(dense, 8), wd);
   EXPECT_NEAR(wd[55] * 4.0, ws[55], 1e-7);  // weight scales with spacing squared
 }

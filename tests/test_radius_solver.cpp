@@ -37,7 +37,7 @@ struct Fixture
   {
     const auto table = makeTable(cloud, 16);
     normals = makeNormals(cloud, table);
-    pcl_ecs::computeDensityWeights(table, weights);
+    pcl_ecs::computeDensityWeights(*cloud, table, weights);
   }
   pcl_ecs::QuadricSamples samples() const { return {*cloud, normals, weights}; }
   Cloud::Ptr cloud;

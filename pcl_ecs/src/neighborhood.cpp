@@ -22,12 +22,8 @@ void storeRow(std::vector<Pair>& row, int k, std::ptrdiff_t i, NeighborhoodTable
   while (row.size() < static_cast<std::size_t>(k))
     row.push_back(row.empty() ? std::make_pair(0.f, static_cast<int>(i)) : row.back());
   int* out_i = table.indices.data() + i * k;
-  float* out_d = table.sqr_distances.data() + i * k;
   for (int j = 0; j < k; ++j)
-  {
     out_i[j] = row[static_cast<std::size_t>(j)].second;
-    out_d[j] = row[static_cast<std::size_t>(j)].first;
-  }
 }
 
 /// Work space of one thread.
@@ -270,7 +266,9 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
     w.kth.push_back(std::sqrt(kth));
     prev = i;
     prev_kth = std::sqrt(kth);
-    unpackKeys(keys, ku, table.indices.data() + i * k, table.sqr_distances.data() + i * k);
+    int* out_i = table.indices.data() + i * k;
+    for (std::size_t j = 0; j < ku; ++j)
+      out_i[j] = keyIndex(keys[j]);
   }
   learnMargin(w);
 }
@@ -288,7 +286,6 @@ Status computeNeighborhoods(const LocalCloud& cloud, const pcl::search::Search<p
   table.k = k;
   // Every row is written below (by the thread that answers its block): no zeroing first.
   table.indices.resize(static_cast<std::size_t>(n) * k);
-  table.sqr_distances.resize(static_cast<std::size_t>(n) * k);
   const std::ptrdiff_t blocks = (n + kBlock - 1) / kBlock;
 
 #pragma omp parallel num_threads(threads)

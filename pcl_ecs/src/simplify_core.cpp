@@ -139,7 +139,7 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
   s.timings.normals = secondsSince(t);
 
   t = Clock::now();
-  computeDensityWeights(table, out.weights, threads);
+  computeDensityWeights(cloud, table, out.weights, threads);
   s.timings.weights = secondsSince(t);
 
   t = Clock::now();

@@ -12,18 +12,25 @@ namespace pcl_ecs
 {
 
 /** \brief The K nearest neighbours of every point, the point itself excluded, sorted by
- * increasing distance (ties by index). Distances are SQUARED, in local-frame units. */
+ * increasing distance (ties by index). Only the indices are stored (4 bytes a neighbour): a
+ * distance is one sqrDistance() away, bit for bit the value the search ranked by. */
 struct NeighborhoodTable
 {
   int k = 0;
   /// size() * k entries, row i = neighbours of point i (filled row by row by the parallel search)
   std::vector<int, UninitialisedAllocator<int>> indices;
-  std::vector<float, UninitialisedAllocator<float>> sqr_distances;  ///< same layout, squared distances
 
   std::size_t size() const { return k > 0 ? indices.size() / static_cast<std::size_t>(k) : 0; }
   const int* neighbors(std::size_t i) const { return indices.data() + i * k; }
-  const float* sqrDistances(std::size_t i) const { return sqr_distances.data() + i * k; }
 };
+
+/** \brief The squared distance between points a and b of the cloud, in float, computed as the
+ * K-neighbour search and the box tree compute it (the table is ranked by exactly these values). */
+inline float sqrDistance(const LocalCloud& cloud, std::size_t a, std::size_t b)
+{
+  const float dx = cloud[a].x - cloud[b].x, dy = cloud[a].y - cloud[b].y, dz = cloud[a].z - cloud[b].z;
+  return dx * dx + dy * dy + dz * dz;
+}
 
 /** \brief Fill `table` with the K nearest neighbours of every point of `cloud` (itself excluded).
  * \param[in] cloud    the points; `search` must have been given this cloud with no indices

@@ -24,12 +24,12 @@ void computeLocalDensity(const LocalCloud& cloud, const NeighborhoodTable& table
       if (is_feature[static_cast<std::size_t>(i)])
         continue;
       const int* nb = table.neighbors(static_cast<std::size_t>(i));
-      const float* nd = table.sqrDistances(static_cast<std::size_t>(i));
       double best = -1.0;
       for (int j = 0; j < table.k; ++j)
         if (!is_feature[static_cast<std::size_t>(nb[j])])
         {
-          best = nd[j];  // sorted: the first non-feature neighbour is the nearest
+          // sorted: the first non-feature neighbour is the nearest
+          best = sqrDistance(cloud, static_cast<std::size_t>(i), static_cast<std::size_t>(nb[j]));
           break;
         }
       // Every K-neighbour is a feature point: ask for more until a non-feature point shows (the

@@ -949,7 +949,7 @@ void Runner::phaseA(int t)
   NormalList normals;
   estimateNormals(*d.cloud, table, tile_threads_, normals);
   std::vector<double> weights, measure, curvature;
-  computeDensityWeights(table, weights, tile_threads_);
+  computeDensityWeights(*d.cloud, table, weights, tile_threads_);
   computeFeatureMeasure(*d.cloud, normals, table, tile_threads_, measure);
   // Eq. 7-11 only for the own points: |H| enters through the centre's tolerance (step 5) and the
   // mean over all points, and centres are own points.
@@ -978,7 +978,8 @@ void Runner::phaseA(int t)
     const double u = p[plan_.axis_u], v = p[plan_.axis_v];
     const double room = std::min({u - (tile.lo[0] - plan_.halo), (tile.hi[0] + plan_.halo) - u,
                                   v - (tile.lo[1] - plan_.halo), (tile.hi[1] + plan_.halo) - v});
-    if (std::sqrt(static_cast<double>(table.sqrDistances(i)[k - 1])) > room)
+    if (std::sqrt(static_cast<double>(sqrDistance(*d.cloud, i, static_cast<std::size_t>(table.neighbors(i)[k - 1])))) >
+        room)
       sums[2] += 1.0;
   }
   // Eq. 5 is the distance to the nearest non-feature neighbour, and which neighbours are features
@@ -992,7 +993,6 @@ void Runner::phaseA(int t)
     if (!d.is_core[i])
       continue;
     const int* nb = table.neighbors(i);
-    const float* nd = table.sqrDistances(i);
     double lowest = std::numeric_limits<double>::infinity();
     std::uint8_t count = 0;
     for (int j = 0; j < k; ++j)
@@ -1002,7 +1002,8 @@ void Runner::phaseA(int t)
         continue;
       lowest = m;
       std::uint8_t entry[12];
-      std::memcpy(entry, &nd[j], 4);
+      const float d2 = sqrDistance(*d.cloud, i, static_cast<std::size_t>(nb[j]));
+      std::memcpy(entry, &d2, 4);
       std::memcpy(entry + 4, &m, 8);
       front.insert(front.end(), entry, entry + 12);
       ++count;

@@ -14,6 +14,7 @@ namespace pcl_ecs
  * \param[in] table the K-neighbourhoods (squared distances are read directly)
  * \param[out] weights one a_i per point
  * \param[in] threads worker threads (the values do not depend on it) */
-void computeDensityWeights(const NeighborhoodTable& table, std::vector<double>& weights, int threads = 1);
+void computeDensityWeights(const LocalCloud& cloud, const NeighborhoodTable& table, std::vector<double>& weights,
+                           int threads = 1);
 
 }  // namespace pcl_ecs
