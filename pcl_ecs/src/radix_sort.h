@@ -16,8 +16,8 @@ namespace pcl_ecs
 {
 
 /// Sort `items` by key(item) (std::uint64_t), stably; `buffer` is scratch of the same type.
-template <class T, class KeyFn>
-void radixSortStable(std::vector<T>& items, KeyFn key, std::vector<T>& buffer)
+template <class T, class A, class KeyFn>
+void radixSortStable(std::vector<T, A>& items, KeyFn key, std::vector<T, A>& buffer)
 {
   constexpr int kBits = 11;
   constexpr std::size_t kBuckets = std::size_t{1} << kBits;
@@ -46,18 +46,19 @@ void radixSortStable(std::vector<T>& items, KeyFn key, std::vector<T>& buffer)
   }
 }
 
-/// The same with a buffer of its own.
-template <class T, class KeyFn>
-void radixSortStable(std::vector<T>& items, KeyFn key)
+/// The same with a buffer of its own (of the items' allocator: an allocator that leaves new
+/// elements uninitialised spares the buffer its zeroing).
+template <class T, class A, class KeyFn>
+void radixSortStable(std::vector<T, A>& items, KeyFn key)
 {
-  std::vector<T> buffer;
+  std::vector<T, A> buffer;
   radixSortStable(items, key, buffer);
 }
 
 /// Sort `items` by key(item), and items of equal keys by `tie_less`: the radix sort, then a
 /// comparison sort of each run of equal keys (short where keys rarely tie).
-template <class T, class KeyFn, class Less>
-void radixSortThenTies(std::vector<T>& items, KeyFn key, Less tie_less)
+template <class T, class A, class KeyFn, class Less>
+void radixSortThenTies(std::vector<T, A>& items, KeyFn key, Less tie_less)
 {
   radixSortStable(items, key);
   const auto n = static_cast<std::ptrdiff_t>(items.size());

@@ -1,4 +1,5 @@
 #include <pcl_ecs/spatial_order.h>
+#include <pcl_ecs/types.h>
 
 #include "radix_sort.h"
 
@@ -42,17 +43,23 @@ void sortByMortonCode(std::vector<int>& ids, const std::function<Eigen::Vector3d
                       const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int threads)
 {
   threads = std::max(1, threads);
-  std::vector<std::pair<std::uint64_t, int>> keyed(ids.size());
+  struct Keyed
+  {
+    std::uint64_t code;
+    int id;
+  };
+  // Filled (and its pages first touched) by the parallel loop, not zeroed first.
+  std::vector<Keyed, UninitialisedAllocator<Keyed>> keyed(ids.size());
   const auto count = static_cast<std::ptrdiff_t>(ids.size());
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (std::ptrdiff_t i = 0; i < count; ++i)
     keyed[static_cast<std::size_t>(i)] = {mortonCode(position(ids[static_cast<std::size_t>(i)]), lo, hi),
                                           ids[static_cast<std::size_t>(i)]};
   // (code, id): by code, then ties by id, whatever the order of `ids`.
-  using Keyed = std::pair<std::uint64_t, int>;
-  radixSortThenTies(keyed, [](const Keyed& e) { return e.first; }, std::less<Keyed>());
+  radixSortThenTies(keyed, [](const Keyed& e) { return e.code; },
+                    [](const Keyed& a, const Keyed& b) { return a.id < b.id; });
   for (std::size_t i = 0; i < ids.size(); ++i)
-    ids[i] = keyed[i].second;
+    ids[i] = keyed[i].id;
 }
 
 }  // namespace pcl_ecs

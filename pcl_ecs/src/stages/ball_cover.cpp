@@ -230,7 +230,7 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
     int point;
   };
   const int threads = resolveThreads(params.threads);
-  std::vector<Entry> entries(order.size());
+  std::vector<Entry, UninitialisedAllocator<Entry>> entries(order.size());  // every entry written below
   const auto centres = static_cast<std::ptrdiff_t>(order.size());
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (std::ptrdiff_t ri = 0; ri < centres; ++ri)
