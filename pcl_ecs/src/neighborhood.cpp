@@ -212,14 +212,20 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
     // within its k-th distance plus the step between the two. Collected without branches, then
     // ranked; if fewer than k + 1 fall inside (rounding), every candidate is ranked. Either way
     // the result is the k smallest keys.
+    //
+    // First a guess a little past the previous k-th distance (neighbouring points have similar
+    // ones), which holds ~1.3 k candidates; when fewer than k others fall inside it, the sure
+    // bound: the previous k-th distance plus the step. The block's first point has no previous
+    // one: its guess is the margin (a recent k-th distance), and no sure bound.
     std::size_t inside = m;
-    if (prev >= 0)
     {
-      // First a guess a little past the previous k-th distance (neighbouring points have similar
-      // ones), which holds ~1.3 k candidates; when fewer than k others fall inside it, the sure
-      // bound: the previous k-th distance plus the step.
-      const float step = (q.getVector3fMap() - cloud[prev].getVector3fMap()).norm();
-      const float guess = prev_kth * 1.15f, sure = (prev_kth + step) * 1.0001f;
+      float guess = w.margin * 1.15f, sure = 0.f;
+      if (prev >= 0)
+      {
+        const float step = (q.getVector3fMap() - cloud[prev].getVector3fMap()).norm();
+        guess = prev_kth * 1.15f;
+        sure = (prev_kth + step) * 1.0001f;
+      }
       std::uint32_t* sel = w.sel.data();
       for (const float b : {guess, sure})
       {
