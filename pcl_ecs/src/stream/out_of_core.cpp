@@ -1131,13 +1131,11 @@ void Runner::phaseC(int t)
     else
       failRun("tile " + std::to_string(t) + "'s halo names tile " + std::to_string(d.src_tile[i]) +
               ", which does not exist: the scratch directory is damaged; remove it and run again");
-  std::vector<int> sources;  // the tiles this one holds points of, ascending
-  for (std::size_t s = 0; s < is_source.size(); ++s)
-    if (is_source[s])
-      sources.push_back(static_cast<int>(s));
   std::vector<std::uint8_t> pre_covered(n, 0);
-  for (const int s : sources)
+  for (int s = 0; s < static_cast<int>(is_source.size()); ++s)
   {
+    if (!is_source[static_cast<std::size_t>(s)])
+      continue;  // this tile holds no point of tile s
     std::vector<std::uint8_t> covered(plan_.tree.tiles[static_cast<std::size_t>(s)].core_points, 0);
     bool any = false;
     const auto writers = claim_writers_.find(s);

@@ -11,7 +11,8 @@ namespace pcl_ecs
 {
 
 /** \brief Eq. 1 for every point of the table. Units: squared local-frame units.
- * \param[in] table the K-neighbourhoods (squared distances are read directly)
+ * \param[in] cloud the points the table was built on (distances by sqrDistance())
+ * \param[in] table the K-neighbourhoods
  * \param[out] weights one a_i per point
  * \param[in] threads worker threads (the values do not depend on it) */
 void computeDensityWeights(const LocalCloud& cloud, const NeighborhoodTable& table, std::vector<double>& weights,
