@@ -154,11 +154,11 @@ TEST(Neighborhood, ExactFarFromTheOrigin)
   EXPECT_EQ(wrong, 0u);
 }
 
-// In Morton order (as the filter keeps its points) consecutive points share one gathered ball;
+// In Hilbert order (as the filter keeps its points) consecutive points share one gathered ball;
 // where the density jumps a point's k-th neighbour lies past that ball and the point is answered
 // by a query of its own. Strips of 1x, 4x and 16x the spacing, a dense cluster and lone points,
 // on the box tree the filter uses: the table must still equal brute force exactly.
-TEST(Neighborhood, ExactInMortonOrderWhereTheDensityJumps)
+TEST(Neighborhood, ExactInHilbertOrderWhereTheDensityJumps)
 {
   Rng rng(41);
   Cloud raw;
@@ -177,7 +177,7 @@ TEST(Neighborhood, ExactInMortonOrderWhereTheDensityJumps)
   for (std::size_t i = 0; i < ids.size(); ++i)
     ids[i] = static_cast<int>(i);
   auto position = [&](int i) { return raw[static_cast<std::size_t>(i)].getVector3fMap().cast<double>().eval(); };
-  pcl_ecs::sortByMortonCode(ids, position, Eigen::Vector3d(-2, -2, -1), Eigen::Vector3d(3, 3, 1));
+  pcl_ecs::sortBySpatialCode(ids, position, Eigen::Vector3d(-2, -2, -1), Eigen::Vector3d(3, 3, 1));
   auto cloud = std::make_shared<Cloud>();
   for (const int i : ids)
     cloud->push_back(raw[static_cast<std::size_t>(i)]);

@@ -142,7 +142,7 @@ TEST(BoxTreeSearch, SameResultsInAnyOrderAndWithAnyThreads)
   std::vector<int> ids(cloud->size());
   for (std::size_t i = 0; i < ids.size(); ++i)
     ids[i] = static_cast<int>(i);
-  pcl_ecs::sortByMortonCode(
+  pcl_ecs::sortBySpatialCode(
       ids, [&](int i) { return (*cloud)[static_cast<std::size_t>(i)].getVector3fMap().cast<double>(); },
       Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 1, 1), 1);
   auto sorted = std::make_shared<Cloud>();

@@ -1,22 +1,86 @@
 #include <pcl_ecs/spatial_order.h>
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 #include <utility>
 
 #include <gtest/gtest.h>
 
-// The Morton order: the code interleaves the axes' bits (x lowest), and the sort is by (code, id),
-// the same with one thread or several (duplicated positions tie on the code and go by id).
-TEST(SpatialOrder, MortonCodeInterleavesTheAxes)
+namespace
+{
+/// The cells of a g × g × g grid over the unit cube, sorted by the code of their centres.
+std::vector<Eigen::Vector3i> cellsInCodeOrder(int g)
 {
   const Eigen::Vector3d lo(0, 0, 0), hi(1, 1, 1);
-  EXPECT_EQ(pcl_ecs::mortonCode(lo, lo, hi), 0u);
-  EXPECT_EQ(pcl_ecs::mortonCode(hi, lo, hi), (1ull << 63) - 1);  // 21 bits per axis, all set
-  // The top cell of x alone: bit 60 (x is the lowest of each triple).
-  EXPECT_EQ(pcl_ecs::mortonCode({0.75, 0.0, 0.0}, lo, hi) >> 60, 1u);
-  EXPECT_EQ(pcl_ecs::mortonCode({0.0, 0.75, 0.0}, lo, hi) >> 60, 2u);
-  EXPECT_EQ(pcl_ecs::mortonCode({0.0, 0.0, 0.75}, lo, hi) >> 60, 4u);
+  std::vector<std::pair<std::uint64_t, Eigen::Vector3i>> cells;
+  for (int x = 0; x < g; ++x)
+    for (int y = 0; y < g; ++y)
+      for (int z = 0; z < g; ++z)
+        cells.emplace_back(pcl_ecs::spatialCode(Eigen::Vector3d(x + 0.5, y + 0.5, z + 0.5) / g, lo, hi),
+                           Eigen::Vector3i(x, y, z));
+  std::sort(cells.begin(), cells.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<Eigen::Vector3i> out;
+  for (std::size_t i = 0; i < cells.size(); ++i)
+  {
+    if (i > 0 && cells[i].first == cells[i - 1].first)
+      ADD_FAILURE() << "two cells share a code";
+    out.push_back(cells[i].second);
+  }
+  return out;
+}
+}  // namespace
+
+// The Hilbert order: it starts at the box's low corner, and consecutive cells are face neighbours
+// at every level (the curve never jumps, unlike the Morton order, which fails this test).
+TEST(SpatialOrder, HilbertCurveStepsToAFaceNeighbourEachTime)
+{
+  const Eigen::Vector3d lo(0, 0, 0), hi(1, 1, 1);
+  EXPECT_EQ(pcl_ecs::spatialCode(lo, lo, hi), 0u);
+  EXPECT_LT(pcl_ecs::spatialCode(hi, lo, hi), 1ull << 63);  // 21 bits per axis
+  for (int g : {2, 8, 64})
+  {
+    const std::vector<Eigen::Vector3i> path = cellsInCodeOrder(g);
+    ASSERT_EQ(path.size(), static_cast<std::size_t>(g * g * g));
+    EXPECT_EQ(path.front(), Eigen::Vector3i(0, 0, 0));
+    std::size_t jumps = 0;
+    for (std::size_t i = 1; i < path.size(); ++i)
+      jumps += (path[i] - path[i - 1]).cwiseAbs().sum() != 1 ? 1 : 0;
+    EXPECT_EQ(jumps, 0u) << g << "^3 cells";
+  }
+}
+
+// Cells are cubes: in a flat box a point falls in the cell it would occupy in the cube of the
+// box's longest side (a per-axis scale would cut a flat scan into slabs thinner than its relief).
+TEST(SpatialOrder, CellsAreCubesWhateverTheBoxShape)
+{
+  const Eigen::Vector3d lo(0, 0, 0), flat(1, 1, 0.01), cube(1, 1, 1);
+  for (const Eigen::Vector3d& p : {Eigen::Vector3d(0.3, 0.7, 0.01), Eigen::Vector3d(0.9, 0.1, 0.004),
+                                   Eigen::Vector3d(0.0, 0.0, 0.01)})
+    EXPECT_EQ(pcl_ecs::spatialCode(p, lo, flat), pcl_ecs::spatialCode(p, lo, cube));
+  // Outside the box: clamped to it; not a number: the low side.
+  EXPECT_EQ(pcl_ecs::spatialCode(Eigen::Vector3d(-1, -1, -1), lo, cube), 0u);
+  EXPECT_EQ(pcl_ecs::spatialCode(Eigen::Vector3d(2, 2, 2), lo, cube), pcl_ecs::spatialCode(cube, lo, cube));
+  EXPECT_EQ(pcl_ecs::spatialCode(Eigen::Vector3d(std::nan(""), 0, 0), lo, cube), 0u);
+}
+
+// The batch form (several points per instruction) gives the single form's codes, whatever the
+// count (a multiple of the lane count or not).
+TEST(SpatialOrder, BatchCodesEqualSingleCodes)
+{
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-2.0, 3.0);
+  const Eigen::Vector3d lo(-2, -1, 0), hi(3, 2, 1);
+  for (std::size_t count : {0u, 1u, 7u, 8u, 9u, 1001u})
+  {
+    std::vector<Eigen::Vector3d> pts;
+    for (std::size_t i = 0; i < count; ++i)
+      pts.emplace_back(u(rng), u(rng), u(rng));
+    std::vector<std::uint64_t> codes(count, 0);
+    pcl_ecs::spatialCodes(pts.data(), count, lo, hi, codes.data());
+    for (std::size_t i = 0; i < count; ++i)
+      EXPECT_EQ(codes[i], pcl_ecs::spatialCode(pts[i], lo, hi)) << i << " of " << count;
+  }
 }
 
 TEST(SpatialOrder, SortIsByCodeThenIdWhateverTheThreads)
@@ -34,13 +98,13 @@ TEST(SpatialOrder, SortIsByCodeThenIdWhateverTheThreads)
     ids[i] = static_cast<int>(ids.size() - 1 - i);  // reversed: the sort has work to do
   std::vector<std::pair<std::uint64_t, int>> expected;
   for (int id : ids)
-    expected.emplace_back(pcl_ecs::mortonCode(pos[static_cast<std::size_t>(id)], lo, hi), id);
+    expected.emplace_back(pcl_ecs::spatialCode(pos[static_cast<std::size_t>(id)], lo, hi), id);
   std::sort(expected.begin(), expected.end());
   auto position = [&](int id) { return pos[static_cast<std::size_t>(id)]; };
   for (int threads : {1, 2, 4})
   {
     std::vector<int> sorted = ids;
-    pcl_ecs::sortByMortonCode(sorted, position, lo, hi, threads);
+    pcl_ecs::sortBySpatialCode(sorted, position, lo, hi, threads);
     ASSERT_EQ(sorted.size(), expected.size());
     std::size_t wrong = 0;
     for (std::size_t i = 0; i < sorted.size(); ++i)

@@ -153,7 +153,7 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
   const std::ptrdiff_t count = last - first;
   if (count > 1 && half_diagonal > 2.0 * w.margin)
   {
-    // A spread-out run (the Morton order jumps): halves gather fewer useless candidates.
+    // A spread-out run (the points straddle a gap or a fold of the surface): halves gather fewer useless candidates.
     const std::ptrdiff_t mid = first + count / 2;
     nearestOfBlock(cloud, search, k, first, mid, w, table);
     nearestOfBlock(cloud, search, k, mid, last, w, table);

@@ -12,8 +12,12 @@ namespace pcl_ecs
 
 namespace
 {
+constexpr int kBits = 21;           // per axis: 63 bits in all
+constexpr int kLanes = 8;           // points encoded side by side
+constexpr double kTop = 2097151.0;  // 2^21 - 1
+
 /// Spread the low 21 bits of v so that two zero bits separate each.
-std::uint64_t spread(std::uint64_t v)
+inline std::uint64_t spread(std::uint64_t v)
 {
   v &= 0x1FFFFFull;
   v = (v | (v << 32)) & 0x1F00000000FFFFull;
@@ -23,24 +27,96 @@ std::uint64_t spread(std::uint64_t v)
   v = (v | (v << 2)) & 0x1249249249249249ull;
   return v;
 }
+
+/// Grid coordinates of p: cubic cells over [lo, lo + extent].
+inline std::uint32_t cellOf(double x, double lo, double extent)
+{
+  double t = extent > 0.0 ? (x - lo) / extent : 0.0;
+  t = std::min(std::max(std::isfinite(t) ? t : 0.0, 0.0), 1.0);
+  return static_cast<std::uint32_t>(t * kTop);
+}
+
+/// Hilbert indices of kLanes grid points (X[axis][lane]), by J. Skilling's transpose algorithm
+/// ("Programming the Hilbert curve", AIP Conf. Proc. 707, 2004), written without branches so that
+/// the lanes run side by side in vector registers.
+void hilbertLanes(std::uint32_t (&X)[3][kLanes], std::uint64_t* codes)
+{
+  std::uint32_t* x0 = X[0];
+  std::uint32_t* x1 = X[1];
+  std::uint32_t* x2 = X[2];
+  // Undo the excess work of the inverse transform, from the top bit down; for each axis i: when
+  // bit b of X[i] is set invert the low bits of X[0], else exchange the low bits of X[0] and X[i].
+  for (int b = kBits - 1; b > 0; --b)
+  {
+    const std::uint32_t low = (1u << b) - 1u;
+    for (int j = 0; j < kLanes; ++j)
+    {
+      std::uint32_t a0 = x0[j], a1 = x1[j], a2 = x2[j];
+      a0 ^= low & (0u - ((a0 >> b) & 1u));  // i = 0: the exchange is a no-op
+      const std::uint32_t s1 = 0u - ((a1 >> b) & 1u);
+      const std::uint32_t w1 = (a0 ^ a1) & low & ~s1;
+      a0 ^= (low & s1) | w1;
+      a1 ^= w1;
+      const std::uint32_t s2 = 0u - ((a2 >> b) & 1u);
+      const std::uint32_t w2 = (a0 ^ a2) & low & ~s2;
+      a0 ^= (low & s2) | w2;
+      a2 ^= w2;
+      x0[j] = a0;
+      x1[j] = a1;
+      x2[j] = a2;
+    }
+  }
+  // Gray encode.
+  for (int j = 0; j < kLanes; ++j)
+  {
+    x1[j] ^= x0[j];
+    x2[j] ^= x1[j];
+  }
+  std::uint32_t t[kLanes] = {};
+  for (int b = kBits - 1; b > 0; --b)
+    for (int j = 0; j < kLanes; ++j)
+      t[j] ^= ((1u << b) - 1u) & (0u - ((x2[j] >> b) & 1u));
+  // The transposed index, interleaved: bit b of X[0], X[1], X[2], most significant first.
+  for (int j = 0; j < kLanes; ++j)
+    codes[j] = (spread(x0[j] ^ t[j]) << 2) | (spread(x1[j] ^ t[j]) << 1) | spread(x2[j] ^ t[j]);
+}
+
+/// Codes of points [first, first + count) (count <= kLanes), read through `at(i)`.
+template <typename At>
+void encodeBatch(const At& at, std::size_t first, std::size_t count, const Eigen::Vector3d& lo,
+                 double extent, std::uint64_t* out)
+{
+  std::uint32_t X[3][kLanes] = {};
+  for (std::size_t j = 0; j < count; ++j)
+  {
+    const Eigen::Vector3d p = at(first + j);
+    for (int a = 0; a < 3; ++a)
+      X[a][j] = cellOf(p(a), lo(a), extent);
+  }
+  std::uint64_t codes[kLanes];
+  hilbertLanes(X, codes);
+  std::copy(codes, codes + count, out);
+}
 }  // namespace
 
-std::uint64_t mortonCode(const Eigen::Vector3d& p, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi)
+std::uint64_t spatialCode(const Eigen::Vector3d& p, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi)
 {
   std::uint64_t code = 0;
-  for (int k = 0; k < 3; ++k)
-  {
-    const double extent = hi(k) - lo(k);
-    double t = extent > 0.0 ? (p(k) - lo(k)) / extent : 0.0;
-    t = std::min(std::max(std::isfinite(t) ? t : 0.0, 0.0), 1.0);
-    const auto cell = static_cast<std::uint64_t>(t * 2097151.0);  // 2^21 - 1
-    code |= spread(cell) << k;
-  }
+  spatialCodes(&p, 1, lo, hi, &code);
   return code;
 }
 
-void sortByMortonCode(std::vector<int>& ids, const std::function<Eigen::Vector3d(int)>& position,
-                      const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int threads)
+void spatialCodes(const Eigen::Vector3d* points, std::size_t count, const Eigen::Vector3d& lo,
+                  const Eigen::Vector3d& hi, std::uint64_t* codes)
+{
+  const double extent = (hi - lo).maxCoeff();
+  auto at = [points](std::size_t i) { return points[i]; };
+  for (std::size_t first = 0; first < count; first += kLanes)
+    encodeBatch(at, first, std::min<std::size_t>(kLanes, count - first), lo, extent, codes + first);
+}
+
+void sortBySpatialCode(std::vector<int>& ids, const std::function<Eigen::Vector3d(int)>& position,
+                       const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int threads)
 {
   threads = std::max(1, threads);
   struct Keyed
@@ -50,11 +126,19 @@ void sortByMortonCode(std::vector<int>& ids, const std::function<Eigen::Vector3d
   };
   // Filled (and its pages first touched) by the parallel loop, not zeroed first.
   std::vector<Keyed, UninitialisedAllocator<Keyed>> keyed(ids.size());
-  const auto count = static_cast<std::ptrdiff_t>(ids.size());
+  const double extent = (hi - lo).maxCoeff();
+  auto at = [&](std::size_t i) { return position(ids[i]); };
+  const auto batches = static_cast<std::ptrdiff_t>((ids.size() + kLanes - 1) / kLanes);
 #pragma omp parallel for schedule(static) num_threads(threads)
-  for (std::ptrdiff_t i = 0; i < count; ++i)
-    keyed[static_cast<std::size_t>(i)] = {mortonCode(position(ids[static_cast<std::size_t>(i)]), lo, hi),
-                                          ids[static_cast<std::size_t>(i)]};
+  for (std::ptrdiff_t b = 0; b < batches; ++b)
+  {
+    const std::size_t first = static_cast<std::size_t>(b) * kLanes;
+    const std::size_t count = std::min<std::size_t>(kLanes, ids.size() - first);
+    std::uint64_t codes[kLanes];
+    encodeBatch(at, first, count, lo, extent, codes);
+    for (std::size_t j = 0; j < count; ++j)
+      keyed[first + j] = {codes[j], ids[first + j]};
+  }
   // (code, id): by code, then ties by id, whatever the order of `ids`.
   radixSortThenTies(keyed, [](const Keyed& e) { return e.code; },
                     [](const Keyed& a, const Keyed& b) { return a.id < b.id; });

@@ -1,8 +1,13 @@
-// spatial_order.h — the order in which the method stores the points: Morton (Z-order) of their
-// position, so that points close in space are close in memory and every neighbour query of every
-// stage is cache-friendly (random-order scans are up to 5× slower to query otherwise).
+// spatial_order.h — the order in which the method stores the points: the Hilbert curve through
+// their position, so that points close in space are close in memory and every neighbour query of
+// every stage is cache-friendly (random-order scans are up to 5× slower to query otherwise).
+// Unlike the Morton (Z) order, the Hilbert curve never jumps: consecutive cells are face
+// neighbours, so a run of consecutive points is a compact patch (the K-neighbour table gathers
+// candidates per run, and the box tree bounds runs). The cells are cubes (the box's longest side
+// on every axis): a flat scan is not cut into slabs thinner than its relief.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <vector>
@@ -12,13 +17,19 @@
 namespace pcl_ecs
 {
 
-/** \brief The 63-bit Morton code of p in the box [lo, hi] (21 bits per axis). */
-std::uint64_t mortonCode(const Eigen::Vector3d& p, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
+/** \brief The 63-bit Hilbert index of p on the 2^21-per-axis grid of cubic cells spanning the box
+ * [lo, hi] (cell side: the box's longest side / (2^21 - 1); points outside are clamped). */
+std::uint64_t spatialCode(const Eigen::Vector3d& p, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
 
-/** \brief Sort `ids` by the Morton code of position(id) in [lo, hi], ties by id: deterministic
+/** \brief spatialCode() of `count` points at once (the same values; several lanes per
+ * instruction). */
+void spatialCodes(const Eigen::Vector3d* points, std::size_t count, const Eigen::Vector3d& lo,
+                  const Eigen::Vector3d& hi, std::uint64_t* codes);
+
+/** \brief Sort `ids` by the spatialCode() of position(id) in [lo, hi], ties by id: deterministic
  * (the same order for any `threads`, the number of threads used; `position` is called from
  * several at once). */
-void sortByMortonCode(std::vector<int>& ids, const std::function<Eigen::Vector3d(int)>& position,
-                      const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int threads = 1);
+void sortBySpatialCode(std::vector<int>& ids, const std::function<Eigen::Vector3d(int)>& position,
+                       const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int threads = 1);
 
 }  // namespace pcl_ecs

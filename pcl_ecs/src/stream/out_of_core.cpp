@@ -645,11 +645,11 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
   // neighbour of the full cloud at about r_j sqrt(K f / j) (a surface: counts grow with r²).
   const Eigen::Vector3d origin = 0.5 * (lo + hi);
   const int threads = resolveThreads(params_.threads);
-  // The sample in Morton order behind the box tree (built in one parallel pass); the queries
+  // The sample in Hilbert order behind the box tree (built in one parallel pass); the queries
   // below return distances only, which do not depend on the order or the back end.
   std::vector<int> morton(sample.size());
   std::iota(morton.begin(), morton.end(), 0);
-  sortByMortonCode(
+  sortBySpatialCode(
       morton, [&](int i) { return sample[static_cast<std::size_t>(i)]; }, lo, hi, threads);
   auto toLocal = [&](const Eigen::Vector3d& p) {
     pcl::PointXYZ q;
@@ -851,7 +851,7 @@ TileData Runner::loadTile(int t) const
   const auto halo = readVector<std::uint8_t>(paths_.halo(t));
   const std::size_t nc = core.size() / (8 + step), nh = halo.size() / (16 + step);
   const std::size_t n = nc + nh;
-  // Sorted by Morton code in the global box, ties by input index: the same order for a point
+  // Sorted by Hilbert code in the global box, ties by input index: the same order for a point
   // whichever tile loads it, so neighbour ties break the same way everywhere.
   // The (code, input index) pairs are distinct (input indices are): one order.
   struct Key
@@ -871,7 +871,7 @@ TileData Runner::loadTile(int t) const
     std::memcpy(&gid, r, 8);
     const std::uint8_t* rec = r + (i < nc ? 8 : 16);
     xyz.get(rec, pos[i].x(), pos[i].y(), pos[i].z());
-    keys[i] = {mortonCode(pos[i], plan_.lo, plan_.hi), gid, static_cast<std::uint32_t>(i)};
+    keys[i] = {spatialCode(pos[i], plan_.lo, plan_.hi), gid, static_cast<std::uint32_t>(i)};
   }
   radixSortThenTies(keys, [](const Key& k) { return k.code; },
                     [](const Key& a, const Key& b) { return a.gid < b.gid; });
@@ -942,7 +942,7 @@ void Runner::phaseA(int t)
   const int k = params_.k_neighbors;
   if (n <= static_cast<std::size_t>(k))
     failRun("tile " + std::to_string(t) + " holds only " + std::to_string(n) + " points; K = " + std::to_string(k));
-  BoxTreeSearch tree(false, tile_threads_);  // tiles are in Morton order
+  BoxTreeSearch tree(false, tile_threads_);  // tiles are in Hilbert order
   tree.setInputCloud(d.cloud);
   NeighborhoodTable table;
   computeNeighborhoods(*d.cloud, tree, k, tile_threads_, table);
@@ -1075,7 +1075,7 @@ void Runner::phaseB(int t)
   }
   TileData d = loadTile(t);
   const std::vector<std::uint8_t> is_feature = attr.features(delta_);
-  BoxTreeSearch tree(false, tile_threads_);  // tiles are in Morton order
+  BoxTreeSearch tree(false, tile_threads_);  // tiles are in Hilbert order
   tree.setInputCloud(d.cloud);
   NeighborhoodTable table;
   computeNeighborhoods(*d.cloud, tree, params_.k_neighbors, tile_threads_, table);
@@ -1159,7 +1159,7 @@ void Runner::phaseC(int t)
         pre_covered[i] = 1;
   }
 
-  BoxTreeSearch tree(false, tile_threads_);  // tiles are in Morton order
+  BoxTreeSearch tree(false, tile_threads_);  // tiles are in Hilbert order
   tree.setInputCloud(d.cloud);
   CoverInput in{*d.cloud,          normals,      weights,     is_feature, curvature, density, mean_abs_h_,
                 mean_spacing_,     neighborhood_radius_, summary_.bbox_diagonal, tree};

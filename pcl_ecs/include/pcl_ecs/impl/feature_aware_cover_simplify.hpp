@@ -113,8 +113,8 @@ void FeatureAwareCoverSimplify<PointT>::applyFilter(PointCloud& output)
     result_.summary.finite_points = used.size();
     if (used.empty())
       return fail("the input has no finite points");
-    // Store the points in Morton order: every neighbour query of every stage is then local.
-    sortByMortonCode(
+    // Store the points in Hilbert order: every neighbour query of every stage is then local.
+    sortBySpatialCode(
         used, [&](int idx) {
           const PointT& p = (*input_)[idx];
           return Eigen::Vector3d(p.x, p.y, p.z);

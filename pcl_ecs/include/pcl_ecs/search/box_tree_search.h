@@ -1,6 +1,6 @@
 // box_tree_search.h — a pcl::search::Search<pcl::PointXYZ> back end for clouds whose points are
 // already in a space-filling-curve order (the filter and the out-of-core tiles keep their points
-// in Morton order): a tree of bounding boxes over runs of consecutive points. Building it is one
+// in Hilbert order): a tree of bounding boxes over runs of consecutive points. Building it is one
 // parallel pass over the points (no sorting, no splitting); a query descends the boxes and scans
 // the runs it reaches with vectorisable distance loops. Distances are SQUARED, as in PCL.
 #pragma once
@@ -15,7 +15,7 @@ namespace pcl_ecs
 
 /** \brief Bounding-box tree over runs of consecutive points behind PCL's search interface
  * (PointXYZ only). Correct for any point order; fast when consecutive points are close (a
- * Morton-ordered cloud: see sortByMortonCode). Non-finite points are skipped;
+ * Hilbert-ordered cloud: see sortBySpatialCode). Non-finite points are skipped;
  * setInputCloud(cloud, indices) builds over the indexed subset. Queries are const and safe from
  * several threads.
  *
