@@ -35,6 +35,27 @@ TEST(RadixSort, StableAndEqualToStableSortForEveryKeyWidth)
   }
 }
 
+// The parallel form: the same (unique) stable order for any thread count, including counts that
+// do not divide the items evenly, and small inputs that it sorts on one thread.
+TEST(RadixSort, ParallelEqualsStableSortWhateverTheThreads)
+{
+  for (const std::uint64_t mask : {0x7ull, 0xF00000000000F00Full, ~0ull})
+    for (const std::size_t n : {std::size_t{1000}, std::size_t{200003}})
+    {
+      const std::vector<Item> input = randomItems(n, mask, 13);
+      std::vector<Item> expected = input;
+      std::stable_sort(expected.begin(), expected.end(),
+                       [](const Item& a, const Item& b) { return a.first < b.first; });
+      for (const int threads : {1, 2, 3, 4})
+      {
+        std::vector<Item> v = input;
+        pcl_ecs::radixSortStableParallel(v, [](const Item& e) { return e.first; }, threads);
+        EXPECT_EQ(v, expected) << "mask " << std::hex << mask << std::dec << ", " << n << " items, "
+                               << threads << " threads";
+      }
+    }
+}
+
 TEST(RadixSort, TiesOrderedByTheSecondKeyWhateverTheStartingOrder)
 {
   std::vector<Item> v = randomItems(20000, 0x3FFull, 11);

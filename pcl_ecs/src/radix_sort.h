@@ -12,6 +12,10 @@
 #include <utility>
 #include <vector>
 
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
 namespace pcl_ecs
 {
 
@@ -55,12 +59,66 @@ void radixSortStable(std::vector<T, A>& items, KeyFn key)
   radixSortStable(items, key, buffer);
 }
 
-/// Sort `items` by key(item), and items of equal keys by `tie_less`: the radix sort, then a
-/// comparison sort of each run of equal keys (short where keys rarely tie).
-template <class T, class A, class KeyFn, class Less>
-void radixSortThenTies(std::vector<T, A>& items, KeyFn key, Less tie_less)
+/// radixSortStable on `threads` threads: each pass counts and moves contiguous chunks in parallel
+/// (a chunk's items go, in order, after those of the chunks before it with the same digit). A
+/// stable sort has one result: the same whatever the thread count.
+template <class T, class A, class KeyFn>
+void radixSortStableParallel(std::vector<T, A>& items, KeyFn key, int threads)
 {
-  radixSortStable(items, key);
+  constexpr int kBits = 11;
+  constexpr std::size_t kBuckets = std::size_t{1} << kBits;
+  const std::size_t n = items.size();
+#ifdef _OPENMP
+  if (threads < 2 || n < (std::size_t{1} << 16))
+#endif
+  {
+    radixSortStable(items, key);
+    return;
+  }
+#ifdef _OPENMP
+  const std::uint64_t first = key(items[0]);
+  std::uint64_t differ = 0;
+  const auto count = static_cast<std::ptrdiff_t>(n);
+#pragma omp parallel for reduction(| : differ) num_threads(threads)
+  for (std::ptrdiff_t i = 0; i < count; ++i)
+    differ |= key(items[static_cast<std::size_t>(i)]) ^ first;
+  std::vector<T, A> buffer(n);
+  std::vector<std::array<std::size_t, kBuckets>> start(static_cast<std::size_t>(threads));
+  for (int shift = 0; shift < 64; shift += kBits)
+  {
+    if (((differ >> shift) & (kBuckets - 1)) == 0)
+      continue;
+#pragma omp parallel num_threads(threads)
+    {
+      const auto team = static_cast<std::size_t>(omp_get_num_threads());
+      const auto t = static_cast<std::size_t>(omp_get_thread_num());
+      const std::size_t b = n * t / team, e = n * (t + 1) / team;
+      std::array<std::size_t, kBuckets>& mine = start[t];
+      mine.fill(0);
+      for (std::size_t i = b; i < e; ++i)
+        ++mine[(key(items[i]) >> shift) & (kBuckets - 1)];
+#pragma omp barrier
+#pragma omp single
+      {
+        std::size_t sum = 0;  // digit-major, then chunk: each chunk's place among equal digits
+        for (std::size_t d = 0; d < kBuckets; ++d)
+          for (std::size_t c = 0; c < team; ++c)
+            sum += std::exchange(start[c][d], sum);
+      }
+      for (std::size_t i = b; i < e; ++i)
+        buffer[mine[(key(items[i]) >> shift) & (kBuckets - 1)]++] = std::move(items[i]);
+    }
+    items.swap(buffer);
+  }
+#endif
+}
+
+/// Sort `items` by key(item), and items of equal keys by `tie_less`: the radix sort (on `threads`
+/// threads), then a comparison sort of each run of equal keys (short where keys rarely tie).
+template <class T, class A, class KeyFn, class Less>
+void radixSortThenTies(std::vector<T, A>& items, KeyFn key, Less tie_less, int threads = 1)
+{
+  radixSortStableParallel(items, key, threads);
   const auto n = static_cast<std::ptrdiff_t>(items.size());
   for (std::ptrdiff_t b = 0, e = 0; b < n; b = e)
   {

@@ -141,7 +141,7 @@ void sortBySpatialCode(std::vector<int>& ids, const std::function<Eigen::Vector3
   }
   // (code, id): by code, then ties by id, whatever the order of `ids`.
   radixSortThenTies(keyed, [](const Keyed& e) { return e.code; },
-                    [](const Keyed& a, const Keyed& b) { return a.id < b.id; });
+                    [](const Keyed& a, const Keyed& b) { return a.id < b.id; }, threads);
   for (std::size_t i = 0; i < ids.size(); ++i)
     ids[i] = keyed[i].id;
 }
