@@ -871,7 +871,13 @@ TileData Runner::loadTile(int t) const
     std::memcpy(&gid, r, 8);
     const std::uint8_t* rec = r + (i < nc ? 8 : 16);
     xyz.get(rec, pos[i].x(), pos[i].y(), pos[i].z());
-    keys[i] = {spatialCode(pos[i], plan_.lo, plan_.hi), gid, static_cast<std::uint32_t>(i)};
+    keys[i] = {0, gid, static_cast<std::uint32_t>(i)};
+  }
+  {
+    std::vector<std::uint64_t> codes(n);
+    spatialCodes(pos.data(), n, plan_.lo, plan_.hi, codes.data());  // several points per instruction
+    for (std::size_t i = 0; i < n; ++i)
+      keys[i].code = codes[i];
   }
   radixSortThenTies(keys, [](const Key& k) { return k.code; },
                     [](const Key& a, const Key& b) { return a.gid < b.gid; });
