@@ -5,7 +5,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <utility>
+
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 namespace pcl_ecs
 {
@@ -37,6 +42,8 @@ struct Worker
   std::vector<std::uint64_t> keys;
   std::vector<std::uint32_t> sel;  // candidates within a bound
   std::vector<float> dist;  // squared distances of one point to the candidates
+  std::vector<float> rank_d;  // the candidates within the bound, for ranking
+  std::vector<int> rank_id;
   std::vector<float> kth;  // K-th distances of the current block
   float margin = 0.f;  // recent K-th neighbour distance: how far around a block to look
 };
@@ -90,6 +97,45 @@ inline void offerKey(std::uint64_t key, std::size_t k, std::uint64_t* keys, std:
     --pos;
   }
   keys[pos] = key;
+}
+
+/// Candidates within a bound ranked by counting (below) when at most this many: the count is
+/// quadratic, the insertion it replaces linear but with a mispredicted branch per shift.
+constexpr std::size_t kRankMax = 32;
+
+/// The k smallest (distance, index) pairs of c candidates as sorted keys, c >= k, indices
+/// distinct, distances finite and >= 0; `d` and `id` have room for c rounded up to a multiple of
+/// 4. Each candidate's place is the number of candidates that order before it (a smaller distance,
+/// or the same and a smaller index), counted four candidates per instruction without a branch.
+void smallestByRank(float* d, int* id, std::size_t c, std::size_t k, std::uint64_t* keys)
+{
+  const std::size_t padded = (c + 3) & ~std::size_t{3};
+  for (std::size_t b = c; b < padded; ++b)
+  {
+    d[b] = std::numeric_limits<float>::infinity();  // orders before no finite distance
+    id[b] = std::numeric_limits<int>::max();
+  }
+  for (std::size_t a = 0; a < c; ++a)
+  {
+    std::size_t before = 0;
+#ifdef __SSE2__
+    static constexpr std::uint8_t kOnes[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
+    const __m128 x = _mm_set1_ps(d[a]);
+    const __m128i xi = _mm_set1_epi32(id[a]);
+    for (std::size_t b = 0; b < padded; b += 4)
+    {
+      const __m128 y = _mm_loadu_ps(d + b);
+      const __m128i yi = _mm_loadu_si128(reinterpret_cast<const __m128i*>(id + b));
+      const __m128 tie_first = _mm_and_ps(_mm_cmpeq_ps(y, x), _mm_castsi128_ps(_mm_cmplt_epi32(yi, xi)));
+      before += kOnes[_mm_movemask_ps(_mm_or_ps(_mm_cmplt_ps(y, x), tie_first))];
+    }
+#else
+    for (std::size_t b = 0; b < c; ++b)
+      before += (d[b] < d[a] || (d[b] == d[a] && id[b] < id[a])) ? 1 : 0;
+#endif
+    if (before < k)
+      keys[before] = pairKey(d[a], id[a]);
+  }
 }
 
 /// The k smallest (squared distance, index) keys of point i, q itself left out, into `keys` (sorted)
@@ -190,6 +236,8 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
   const std::size_t ku = static_cast<std::size_t>(k);
   w.keys.resize(ku);
   w.sel.resize(m);
+  w.rank_d.resize(kRankMax + 4);
+  w.rank_id.resize(kRankMax + 4);
   std::ptrdiff_t prev = -1;  // the last point of the block answered from the candidates
   float prev_kth = 0.f;
   for (std::ptrdiff_t i = first; i < last; ++i)
@@ -249,7 +297,26 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
       if (w.cid[j] != i)
         offerKey(pairKey(d2[j], w.cid[j]), ku, keys, filled);
     };
-    if (inside < m)
+    if (inside < m && inside <= kRankMax)
+    {
+      std::size_t c = 0;
+      for (std::size_t s = 0; s < inside; ++s)
+      {
+        const std::uint32_t j = w.sel[s];
+        w.rank_d[c] = d2[j];
+        w.rank_id[c] = w.cid[j];
+        c += w.cid[j] != i ? 1 : 0;
+      }
+      if (c >= ku)
+      {
+        smallestByRank(w.rank_d.data(), w.rank_id.data(), c, ku, keys);
+        filled = ku;
+      }
+      else
+        for (std::size_t s = 0; s < inside; ++s)
+          consider(w.sel[s]);
+    }
+    else if (inside < m)
       for (std::size_t s = 0; s < inside; ++s)
         consider(w.sel[s]);
     else
