@@ -3,6 +3,7 @@
 #include "pair_key.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -97,6 +98,52 @@ inline void offerKey(std::uint64_t key, std::size_t k, std::uint64_t* keys, std:
     --pos;
   }
   keys[pos] = key;
+}
+
+/// The positions j < m with d[j] <= bound, in order, into sel; returns how many. d and sel have
+/// room for m rounded up to a multiple of 4. Four candidates per instruction, no branch: each
+/// quadruple's mask picks a precomputed packing of its positions.
+std::size_t selectWithin(const float* d, std::size_t m, float bound, std::uint32_t* sel)
+{
+  const std::size_t m4 = (m + 3) & ~std::size_t{3};
+  std::size_t c = 0;
+#ifdef __SSE2__
+  struct Packing
+  {
+    alignas(16) std::uint32_t lane[4];
+    std::uint32_t count;
+  };
+  static const auto kPack = [] {
+    std::array<Packing, 16> t{};
+    for (unsigned mask = 0; mask < 16; ++mask)
+    {
+      t[mask].count = 0;
+      for (std::uint32_t l = 0; l < 4; ++l)
+        if (mask & (1u << l))
+          t[mask].lane[t[mask].count++] = l;
+    }
+    return t;
+  }();
+  const __m128 limit = _mm_set1_ps(bound);
+  for (std::size_t j = 0; j < m4; j += 4)
+  {
+    const int mask = _mm_movemask_ps(_mm_cmple_ps(_mm_loadu_ps(d + j), limit));
+    const Packing& p = kPack[static_cast<std::size_t>(mask)];
+    const __m128i lanes = _mm_add_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(p.lane)),
+                                        _mm_set1_epi32(static_cast<int>(j)));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(sel + c), lanes);  // c + 4 <= m4: in room
+    c += p.count;
+  }
+#else
+  for (std::size_t j = 0; j < m4; ++j)
+  {
+    sel[c] = static_cast<std::uint32_t>(j);
+    c += d[j] <= bound ? 1 : 0;
+  }
+#endif
+  while (c > 0 && sel[c - 1] >= m)
+    --c;  // padding past m (only an infinite bound reaches it)
+  return c;
 }
 
 /// Candidates within a bound ranked by counting (below) when at most this many: the count is
@@ -224,7 +271,10 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
   w.cy.resize(m);
   w.cz.resize(m);
   w.cid.resize(m);
-  w.dist.resize(m);
+  const std::size_t m4 = (m + 3) & ~std::size_t{3};  // whole quadruples for the selection
+  w.dist.resize(m4);
+  for (std::size_t j = m; j < m4; ++j)
+    w.dist[j] = std::numeric_limits<float>::infinity();  // within no bound
   for (std::size_t j = 0; j < m; ++j)
   {
     const pcl::PointXYZ& p = cloud[w.found[j]];
@@ -235,7 +285,7 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
   }
   const std::size_t ku = static_cast<std::size_t>(k);
   w.keys.resize(ku);
-  w.sel.resize(m);
+  w.sel.resize(m4);
   w.rank_d.resize(kRankMax + 4);
   w.rank_id.resize(kRankMax + 4);
   std::ptrdiff_t prev = -1;  // the last point of the block answered from the candidates
@@ -278,12 +328,7 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
       for (const float b : {guess, sure})
       {
         const float bound = b * b;
-        std::size_t c = 0;
-        for (std::size_t j = 0; j < m; ++j)
-        {
-          sel[c] = static_cast<std::uint32_t>(j);
-          c += d2[j] <= bound ? 1 : 0;
-        }
+        const std::size_t c = selectWithin(d2, m, bound, sel);
         if (c > ku)
         {
           inside = c;
