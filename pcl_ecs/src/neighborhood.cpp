@@ -313,9 +313,10 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
     //
     // First a guess a little past the previous k-th distance (neighbouring points have similar
     // ones): 1.1 × it holds ~1.2 k candidates on a surface (the ranking below is quadratic in
-    // their number, so a tight guess pays; 1.06-1.2 were measured); when fewer than k others fall inside it, the sure
-    // bound: the previous k-th distance plus the step. The block's first point has no previous
-    // one: its guess is the margin (a recent k-th distance), and no sure bound.
+    // their number, so a tight guess pays; 1.06-1.2 were measured); when fewer than k others
+    // fall inside it, the sure bound: the previous k-th distance plus the step. The block's first
+    // point has no previous one: its guess is the margin (a recent k-th distance), and no sure
+    // bound.
     std::size_t inside = m;
     {
       float guess = w.margin * 1.10f, sure = 0.f;
