@@ -410,13 +410,34 @@ TEST_F(OutOfCore, SameOutputForAnyThreadCount)
   StreamOptions opt = tiled("scratch-t1");
   params.threads = 1;
   simplifyOutOfCore(path("scan.pcd"), path("t1.pcd"), params, opt);
+  // 4 threads: two tiles at a time with 2 threads each; 3: two at a time with 1 each. A stage's
+  // last tile, when the count is odd (here a colour of the cover has 1, 3 or 5 tiles), runs alone
+  // with all of them.
   params.threads = 4;
   opt.scratch_dir = path("scratch-t4");
   simplifyOutOfCore(path("scan.pcd"), path("t4.pcd"), params, opt);
-  std::ifstream a(path("t1.pcd"), std::ios::binary), b(path("t4.pcd"), std::ios::binary);
-  const std::string sa((std::istreambuf_iterator<char>(a)), {}), sb((std::istreambuf_iterator<char>(b)), {});
+  params.threads = 3;
+  opt.scratch_dir = path("scratch-t3");
+  std::size_t odd_stages = 0;
+  opt.progress = [&](const std::string& line) {
+    // "C (cover, colour c/n): tile i/m, ..." with m odd and i = m: a stage that ended on a lone tile
+    const auto at = line.find(": tile ");
+    if (line.rfind("C (cover", 0) != 0 || at == std::string::npos)
+      return;
+    const auto slash = line.find('/', at);
+    const int i = std::stoi(line.substr(at + 7, slash - at - 7));
+    const int m = std::stoi(line.substr(slash + 1));
+    odd_stages += (m % 2 == 1 && i == m) ? 1 : 0;
+  };
+  simplifyOutOfCore(path("scan.pcd"), path("t3.pcd"), params, opt);
+  std::ifstream a(path("t1.pcd"), std::ios::binary), b(path("t4.pcd"), std::ios::binary),
+      c(path("t3.pcd"), std::ios::binary);
+  const std::string sa((std::istreambuf_iterator<char>(a)), {}), sb((std::istreambuf_iterator<char>(b)), {}),
+      sc((std::istreambuf_iterator<char>(c)), {});
   EXPECT_EQ(sa, sb);
+  EXPECT_EQ(sa, sc);
   EXPECT_GT(sa.size(), 1000u);
+  EXPECT_GT(odd_stages, 0u) << "no cover colour with an odd number of tiles: the lone-tile path untested";
 }
 
 // Pass 1 is the only read of the input: emptying the file once the scan is over (the plan line)

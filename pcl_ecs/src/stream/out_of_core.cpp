@@ -555,7 +555,8 @@ private:
   std::mutex report_mutex_;
   std::atomic<std::uint64_t> steps_{0};
   int workers_ = 1;
-  int tile_threads_ = 1;
+  int tile_threads_ = 1;  // threads inside one tile (changed only between batches of tiles)
+  int threads_ = 1;       // all the run's threads
   std::uint64_t memory_limit_ = 0;
   /// Claim files present when the current colour started: target tile -> writers (ascending).
   std::map<int, std::vector<int>> claim_writers_;
@@ -1326,7 +1327,7 @@ void Runner::runStage(const char* name, int index, const std::vector<int>& todo,
   }
   std::atomic<std::uint64_t> done_points{0};
   std::atomic<std::size_t> done_tiles{0};
-  forEachTile(todo, workers_, [&](int t) {
+  auto body = [&](int t) {
     fn(t);
     const Tile& tile = plan_.tree.tiles[static_cast<std::size_t>(t)];
     const std::uint64_t pts = done_points += tile.core_points;
@@ -1339,7 +1340,28 @@ void Runner::runStage(const char* name, int index, const std::vector<int>& todo,
        << (rate > 0 ? static_cast<double>(total_points - pts) / rate : 0.0) << " s";
     report(os.str());
     stepDone();
-  });
+  };
+  // Tiles go `workers_` at a time; the last few, fewer than the workers, would leave threads idle,
+  // so they run together with the threads shared among them (a tile's result does not depend on
+  // its thread count).
+  const std::size_t tail = todo.size() % static_cast<std::size_t>(workers_);
+  forEachTile(std::vector<int>(todo.begin(), todo.end() - static_cast<std::ptrdiff_t>(tail)), workers_, body);
+  if (tail > 0)
+  {
+    const int shared = tile_threads_;
+    tile_threads_ = std::max(1, threads_ / static_cast<int>(tail));
+    try
+    {
+      forEachTile(std::vector<int>(todo.end() - static_cast<std::ptrdiff_t>(tail), todo.end()),
+                  static_cast<int>(tail), body);
+    }
+    catch (...)
+    {
+      tile_threads_ = shared;
+      throw;
+    }
+    tile_threads_ = shared;
+  }
   summary_.stage_seconds[static_cast<std::size_t>(index)] += secondsSince(t0);
 }
 
@@ -1385,6 +1407,7 @@ StreamSummary Runner::run()
   if (params_.use_input_normals)
     failRun("--stream estimates the normals; --use-input-normals is not supported with it");
   const int threads = resolveThreads(params_.threads);
+  threads_ = threads;
   workers_ = std::min(threads, kConcurrentTiles);
   tile_threads_ = std::max(1, threads / workers_);
   memory_limit_ = options_.memory_limit;
