@@ -173,7 +173,8 @@ void smallestByRank(float* d, int* id, std::size_t c, std::size_t k, std::uint64
     {
       const __m128 y = _mm_loadu_ps(d + b);
       const __m128i yi = _mm_loadu_si128(reinterpret_cast<const __m128i*>(id + b));
-      const __m128 tie_first = _mm_and_ps(_mm_cmpeq_ps(y, x), _mm_castsi128_ps(_mm_cmplt_epi32(yi, xi)));
+      const __m128 tie_first =
+          _mm_and_ps(_mm_cmpeq_ps(y, x), _mm_castsi128_ps(_mm_cmplt_epi32(yi, xi)));
       before += kOnes[_mm_movemask_ps(_mm_or_ps(_mm_cmplt_ps(y, x), tie_first))];
     }
 #else
@@ -246,7 +247,8 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
   const std::ptrdiff_t count = last - first;
   if (count > 1 && half_diagonal > 2.0 * w.margin)
   {
-    // A spread-out run (the points straddle a gap or a fold of the surface): halves gather fewer useless candidates.
+    // A spread-out run (the points straddle a gap or a fold of the surface): halves gather fewer
+    // useless candidates.
     const std::ptrdiff_t mid = first + count / 2;
     nearestOfBlock(cloud, search, k, first, mid, w, table);
     nearestOfBlock(cloud, search, k, mid, last, w, table);
