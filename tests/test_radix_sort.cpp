@@ -35,7 +35,7 @@ TEST(RadixSort, StableAndEqualToStableSortForEveryKeyWidth)
   }
 }
 
-// The parallel form: the same (unique) stable order for any thread count, including counts that
+// On several threads: the same (unique) stable order for any thread count, including counts that
 // do not divide the items evenly, and small inputs that it sorts on one thread.
 TEST(RadixSort, ParallelEqualsStableSortWhateverTheThreads)
 {
@@ -49,7 +49,7 @@ TEST(RadixSort, ParallelEqualsStableSortWhateverTheThreads)
       for (const int threads : {1, 2, 3, 4})
       {
         std::vector<Item> v = input;
-        pcl_ecs::radixSortStableParallel(v, [](const Item& e) { return e.first; }, threads);
+        pcl_ecs::radixSortStable(v, [](const Item& e) { return e.first; }, threads);
         EXPECT_EQ(v, expected) << "mask " << std::hex << mask << std::dec << ", " << n << " items, "
                                << threads << " threads";
       }

@@ -348,6 +348,7 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
     };
     if (inside < m && inside <= kRankMax)
     {
+      // A bound holds more than k candidates (q among them at most once): k or more others.
       std::size_t c = 0;
       for (std::size_t s = 0; s < inside; ++s)
       {
@@ -356,14 +357,8 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
         w.rank_id[c] = w.cid[j];
         c += w.cid[j] != i ? 1 : 0;
       }
-      if (c >= ku)
-      {
-        smallestByRank(w.rank_d.data(), w.rank_id.data(), c, ku, keys);
-        filled = ku;
-      }
-      else
-        for (std::size_t s = 0; s < inside; ++s)
-          consider(w.sel[s]);
+      smallestByRank(w.rank_d.data(), w.rank_id.data(), c, ku, keys);
+      filled = ku;
     }
     else if (inside < m)
       for (std::size_t s = 0; s < inside; ++s)

@@ -19,79 +19,56 @@
 namespace pcl_ecs
 {
 
-/// Sort `items` by key(item) (std::uint64_t), stably; `buffer` is scratch of the same type.
+namespace radix_detail
+{
+inline std::size_t teamSize()
+{
+#ifdef _OPENMP
+  return static_cast<std::size_t>(omp_get_num_threads());
+#else
+  return 1;
+#endif
+}
+
+inline std::size_t teamIndex()
+{
+#ifdef _OPENMP
+  return static_cast<std::size_t>(omp_get_thread_num());
+#else
+  return 0;
+#endif
+}
+}  // namespace radix_detail
+
+/// Sort `items` by key(item) (std::uint64_t), stably, on `threads` threads (inputs under 64k
+/// items on one): each pass counts and moves contiguous chunks, a chunk's items going, in order,
+/// after those of the chunks before it with the same digit. A stable sort has one result: the same
+/// whatever the thread count. The scratch buffer has the items' allocator (one that leaves new
+/// elements uninitialised spares it its zeroing).
 template <class T, class A, class KeyFn>
-void radixSortStable(std::vector<T, A>& items, KeyFn key, std::vector<T, A>& buffer)
+void radixSortStable(std::vector<T, A>& items, KeyFn key, int threads = 1)
 {
   constexpr int kBits = 11;
   constexpr std::size_t kBuckets = std::size_t{1} << kBits;
   const std::size_t n = items.size();
   if (n < 2)
     return;
+  const int team_max = n < (std::size_t{1} << 16) ? 1 : std::max(1, threads);
   const std::uint64_t first = key(items[0]);
   std::uint64_t differ = 0;  // the bits in which some key differs from the first
-  for (const T& item : items)
-    differ |= key(item) ^ first;
-  buffer.resize(n);
-  std::array<std::size_t, kBuckets> start;
+  const auto count = static_cast<std::ptrdiff_t>(n);
+#pragma omp parallel for reduction(| : differ) num_threads(team_max) if (team_max > 1)
+  for (std::ptrdiff_t i = 0; i < count; ++i)
+    differ |= key(items[static_cast<std::size_t>(i)]) ^ first;
+  std::vector<T, A> buffer(n);
+  std::vector<std::array<std::size_t, kBuckets>> start(static_cast<std::size_t>(team_max));
   for (int shift = 0; shift < 64; shift += kBits)
   {
     if (((differ >> shift) & (kBuckets - 1)) == 0)
       continue;  // every key has the same digit here: the pass would not move anything
-    start.fill(0);
-    for (const T& item : items)
-      ++start[(key(item) >> shift) & (kBuckets - 1)];
-    std::size_t sum = 0;
-    for (std::size_t& s : start)
-      sum += std::exchange(s, sum);
-    for (T& item : items)
-      buffer[start[(key(item) >> shift) & (kBuckets - 1)]++] = std::move(item);
-    items.swap(buffer);
-  }
-}
-
-/// The same with a buffer of its own (of the items' allocator: an allocator that leaves new
-/// elements uninitialised spares the buffer its zeroing).
-template <class T, class A, class KeyFn>
-void radixSortStable(std::vector<T, A>& items, KeyFn key)
-{
-  std::vector<T, A> buffer;
-  radixSortStable(items, key, buffer);
-}
-
-/// radixSortStable on `threads` threads: each pass counts and moves contiguous chunks in parallel
-/// (a chunk's items go, in order, after those of the chunks before it with the same digit). A
-/// stable sort has one result: the same whatever the thread count.
-template <class T, class A, class KeyFn>
-void radixSortStableParallel(std::vector<T, A>& items, KeyFn key, int threads)
-{
-  constexpr int kBits = 11;
-  constexpr std::size_t kBuckets = std::size_t{1} << kBits;
-  const std::size_t n = items.size();
-#ifdef _OPENMP
-  if (threads < 2 || n < (std::size_t{1} << 16))
-#endif
-  {
-    radixSortStable(items, key);
-    return;
-  }
-#ifdef _OPENMP
-  const std::uint64_t first = key(items[0]);
-  std::uint64_t differ = 0;
-  const auto count = static_cast<std::ptrdiff_t>(n);
-#pragma omp parallel for reduction(| : differ) num_threads(threads)
-  for (std::ptrdiff_t i = 0; i < count; ++i)
-    differ |= key(items[static_cast<std::size_t>(i)]) ^ first;
-  std::vector<T, A> buffer(n);
-  std::vector<std::array<std::size_t, kBuckets>> start(static_cast<std::size_t>(threads));
-  for (int shift = 0; shift < 64; shift += kBits)
-  {
-    if (((differ >> shift) & (kBuckets - 1)) == 0)
-      continue;
-#pragma omp parallel num_threads(threads)
+#pragma omp parallel num_threads(team_max) if (team_max > 1)
     {
-      const auto team = static_cast<std::size_t>(omp_get_num_threads());
-      const auto t = static_cast<std::size_t>(omp_get_thread_num());
+      const std::size_t team = radix_detail::teamSize(), t = radix_detail::teamIndex();
       const std::size_t b = n * t / team, e = n * (t + 1) / team;
       std::array<std::size_t, kBuckets>& mine = start[t];
       mine.fill(0);
@@ -110,7 +87,6 @@ void radixSortStableParallel(std::vector<T, A>& items, KeyFn key, int threads)
     }
     items.swap(buffer);
   }
-#endif
 }
 
 /// Sort `items` by key(item), and items of equal keys by `tie_less`: the radix sort (on `threads`
@@ -118,7 +94,7 @@ void radixSortStableParallel(std::vector<T, A>& items, KeyFn key, int threads)
 template <class T, class A, class KeyFn, class Less>
 void radixSortThenTies(std::vector<T, A>& items, KeyFn key, Less tie_less, int threads = 1)
 {
-  radixSortStableParallel(items, key, threads);
+  radixSortStable(items, key, threads);
   const auto n = static_cast<std::ptrdiff_t>(items.size());
   for (std::ptrdiff_t b = 0, e = 0; b < n; b = e)
   {

@@ -246,7 +246,7 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
   }
   // By cell; the entries are in rank order and the sort is stable: by (cell, rank), one order
   // whatever the threads.
-  radixSortStableParallel(entries, [](const Entry& e) { return e.cell; }, threads);
+  radixSortStable(entries, [](const Entry& e) { return e.cell; }, threads);
   // Cell boundaries, and where each colour starts.
   std::vector<std::size_t> cell_begin;
   for (std::size_t e = 0; e < entries.size(); ++e)

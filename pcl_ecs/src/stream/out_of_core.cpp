@@ -555,7 +555,7 @@ private:
   std::mutex report_mutex_;
   std::atomic<std::uint64_t> steps_{0};
   int workers_ = 1;
-  int tile_threads_ = 1;  // threads inside one tile (changed only between batches of tiles)
+  int tile_threads_ = 1;  // threads inside one tile (set by runStage for each batch of tiles)
   int threads_ = 1;       // all the run's threads
   std::uint64_t memory_limit_ = 0;
   /// Claim files present when the current colour started: target tile -> writers (ascending).
@@ -1341,27 +1341,17 @@ void Runner::runStage(const char* name, int index, const std::vector<int>& todo,
     report(os.str());
     stepDone();
   };
-  // Tiles go `workers_` at a time; the last few, fewer than the workers, would leave threads idle,
-  // so they run together with the threads shared among them (a tile's result does not depend on
-  // its thread count).
+  // Tiles go `workers_` at a time, the run's threads shared among them; the last few, fewer than
+  // the workers, would leave threads idle, so they share all the threads among themselves (a
+  // tile's result does not depend on its thread count).
+  auto batch = [&](const std::vector<int>& tiles, int workers) {
+    tile_threads_ = std::max(1, threads_ / workers);
+    forEachTile(tiles, workers, body);
+  };
   const std::size_t tail = todo.size() % static_cast<std::size_t>(workers_);
-  forEachTile(std::vector<int>(todo.begin(), todo.end() - static_cast<std::ptrdiff_t>(tail)), workers_, body);
+  batch(std::vector<int>(todo.begin(), todo.end() - static_cast<std::ptrdiff_t>(tail)), workers_);
   if (tail > 0)
-  {
-    const int shared = tile_threads_;
-    tile_threads_ = std::max(1, threads_ / static_cast<int>(tail));
-    try
-    {
-      forEachTile(std::vector<int>(todo.end() - static_cast<std::ptrdiff_t>(tail), todo.end()),
-                  static_cast<int>(tail), body);
-    }
-    catch (...)
-    {
-      tile_threads_ = shared;
-      throw;
-    }
-    tile_threads_ = shared;
-  }
+    batch(std::vector<int>(todo.end() - static_cast<std::ptrdiff_t>(tail), todo.end()), static_cast<int>(tail));
   summary_.stage_seconds[static_cast<std::size_t>(index)] += secondsSince(t0);
 }
 
@@ -1409,7 +1399,6 @@ StreamSummary Runner::run()
   const int threads = resolveThreads(params_.threads);
   threads_ = threads;
   workers_ = std::min(threads, kConcurrentTiles);
-  tile_threads_ = std::max(1, threads / workers_);
   memory_limit_ = options_.memory_limit;
   if (memory_limit_ == 0)
     memory_limit_ = std::max<std::uint64_t>(256ull << 20, physicalMemory() / 4);
