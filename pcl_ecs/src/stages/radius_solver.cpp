@@ -5,6 +5,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
+
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 namespace pcl_ecs
 {
@@ -18,36 +23,56 @@ double errorOf(const QuadricMinimum& minimum, double weight_sum, double L, Error
 }
 
 void candidatePlanes(const QuadricSamples& samples, const Eigen::Vector3d& centre,
-                     const std::vector<BallCandidate>& candidates, std::vector<CandidatePlane>& planes,
+                     const std::vector<BallCandidate>& candidates, CandidatePlanes& planes,
                      std::size_t first)
 {
-  planes.resize(candidates.size());
+  // Distances padded to whole pairs with +inf (in no piece of the kernel) for evaluateRadius.
+  const std::size_t m = candidates.size();
+  planes.distance.resize(m + (m & 1));
+  if (m & 1)
+    planes.distance[m] = std::numeric_limits<double>::infinity();
+  planes.terms.resize(m);
   for (std::size_t i = first; i < candidates.size(); ++i)
   {
     const auto j = static_cast<std::size_t>(candidates[i].index);
     const Eigen::Vector3d n = samples.normals[j].cast<double>();
     const Eigen::Vector3d offset = samples.cloud[j].getVector3fMap().cast<double>() - centre;
     const double a = samples.weights[j], d = n.dot(offset);
-    CandidatePlane& p = planes[i];
-    p.distance = candidates[i].distance;
+    planes.distance[i] = candidates[i].distance;
+    double* t = planes.terms[i].t;
     const double an0 = a * n.x(), an1 = a * n.y(), an2 = a * n.z();
-    p.terms[0] = an0 * n.x();
-    p.terms[1] = an0 * n.y();
-    p.terms[2] = an0 * n.z();
-    p.terms[3] = an1 * n.y();
-    p.terms[4] = an1 * n.z();
-    p.terms[5] = an2 * n.z();
-    p.terms[6] = an0 * d;
-    p.terms[7] = an1 * d;
-    p.terms[8] = an2 * d;
-    p.terms[9] = a * d * d;
-    p.terms[10] = a;
-    p.terms[11] = 0.0;
+    t[0] = an0 * n.x();
+    t[1] = an0 * n.y();
+    t[2] = an0 * n.z();
+    t[3] = an1 * n.y();
+    t[4] = an1 * n.z();
+    t[5] = an2 * n.z();
+    t[6] = an0 * d;
+    t[7] = an1 * d;
+    t[8] = an2 * d;
+    t[9] = a * d * d;
+    t[10] = a;
+    t[11] = 0.0;
   }
 }
 
-RadiusEvaluation evaluateRadius(const std::vector<CandidatePlane>& planes, double r, double L,
-                                ErrorForm form)
+namespace
+{
+/// sum += g × terms, term by term (the same operations, in the same order, as the scalar loop).
+inline void addWeighted(double* sum, const double* terms, double g)
+{
+#ifdef __SSE2__
+  const __m128d w = _mm_set1_pd(g);
+  for (int k = 0; k < 12; k += 2)
+    _mm_storeu_pd(sum + k, _mm_add_pd(_mm_loadu_pd(sum + k), _mm_mul_pd(w, _mm_loadu_pd(terms + k))));
+#else
+  for (int k = 0; k < 12; ++k)
+    sum[k] += g * terms[k];
+#endif
+}
+}  // namespace
+
+RadiusEvaluation evaluateRadius(const CandidatePlanes& planes, double r, double L, ErrorForm form)
 {
   RadiusEvaluation ev;
   ev.radius = r;
@@ -55,32 +80,51 @@ RadiusEvaluation evaluateRadius(const std::vector<CandidatePlane>& planes, doubl
   // The planes by the kernel's piece they fall in (collected without a branch per plane: which
   // piece is as good as random, and mispredicted branches cost more than the sums), then each
   // piece summed in plane order. Distances are >= 0.
+  const std::size_t m = planes.size();
   thread_local std::vector<std::uint32_t> inner, outer;
-  inner.resize(planes.size());
-  outer.resize(planes.size());
+  inner.resize(m + 2);
+  outer.resize(m + 2);
   std::size_t n_inner = 0, n_outer = 0;
-  for (std::size_t j = 0; j < planes.size(); ++j)
+  const double* dist = planes.distance.data();
+#ifdef __SSE2__
+  // Two distances per instruction; a pair's two masks pick the packing of its lanes (an odd m's
+  // last pair ends with candidatePlanes' +inf padding: in no piece).
+  static constexpr std::uint32_t kLane[4][2] = {{0, 0}, {0, 0}, {1, 0}, {0, 1}};
+  static constexpr std::uint32_t kCount[4] = {0, 1, 1, 2};
+  const __m128d scale = _mm_set1_pd(inv_R), half = _mm_set1_pd(0.5), one = _mm_set1_pd(1.0);
+  for (std::size_t j = 0; j < m; j += 2)
   {
-    const double t = planes[j].distance * inv_R;
+    const __m128d t = _mm_mul_pd(_mm_loadu_pd(dist + j), scale);
+    const int in = _mm_movemask_pd(_mm_cmple_pd(t, half));
+    const int out = _mm_movemask_pd(_mm_and_pd(_mm_cmpgt_pd(t, half), _mm_cmple_pd(t, one)));
+    const auto base = static_cast<std::uint32_t>(j);
+    inner[n_inner] = base + kLane[in][0];
+    inner[n_inner + 1] = base + kLane[in][1];
+    n_inner += kCount[in];
+    outer[n_outer] = base + kLane[out][0];
+    outer[n_outer + 1] = base + kLane[out][1];
+    n_outer += kCount[out];
+  }
+#else
+  for (std::size_t j = 0; j < m; ++j)
+  {
+    const double t = dist[j] * inv_R;
     inner[n_inner] = static_cast<std::uint32_t>(j);
     outer[n_outer] = static_cast<std::uint32_t>(j);
     n_inner += t <= 0.5 ? 1 : 0;
     n_outer += (t > 0.5) & (t <= 1.0) ? 1 : 0;
   }
+#endif
   double sum[12] = {};
-  auto add = [&sum](const CandidatePlane& p, double g) {
-    for (int t = 0; t < 12; ++t)
-      sum[t] += g * p.terms[t];
-  };
   for (std::size_t s = 0; s < n_inner; ++s)
   {
-    const CandidatePlane& p = planes[inner[s]];
-    add(p, kernelInner(p.distance * inv_R));
+    const std::uint32_t j = inner[s];
+    addWeighted(sum, planes.terms[j].t, kernelInner(dist[j] * inv_R));
   }
   for (std::size_t s = 0; s < n_outer; ++s)
   {
-    const CandidatePlane& p = planes[outer[s]];
-    add(p, kernelOuter(p.distance * inv_R));
+    const std::uint32_t j = outer[s];
+    addWeighted(sum, planes.terms[j].t, kernelOuter(dist[j] * inv_R));
   }
   Quadric q;
   q.A << sum[0], sum[1], sum[2], sum[1], sum[3], sum[4], sum[2], sum[4], sum[5];
@@ -97,7 +141,7 @@ RadiusEvaluation evaluateRadius(const QuadricSamples& samples, const Eigen::Vect
                                 const std::vector<BallCandidate>& candidates, double r, double L,
                                 ErrorForm form)
 {
-  std::vector<CandidatePlane> planes;
+  CandidatePlanes planes;
   candidatePlanes(samples, centre, candidates, planes);
   return evaluateRadius(planes, r, L, form);
 }
@@ -112,7 +156,7 @@ RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d&
   if (!(floor > 0.0))
     return sol;  // a duplicate of another point, or nothing around: the centre alone
 
-  thread_local std::vector<CandidatePlane> planes;  // kept from ball to ball: no allocation each
+  thread_local CandidatePlanes planes;  // kept from ball to ball: no allocation each
   planes.clear();
   auto eval = [&](double r) {
     // Candidates only grow (see CandidateSource): the planes of those held already stay valid.

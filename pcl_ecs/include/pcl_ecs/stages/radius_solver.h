@@ -51,27 +51,38 @@ struct RadiusEvaluation
   double weight_sum = 0.0;
 };
 
-/** \brief The tangent plane of one candidate relative to the centre as the terms it adds to eq. 13
- * (before the kernel weight): precomputed once per radius query, read by every E(r). */
-struct CandidatePlane
+/** \brief The tangent planes of a ball's candidates as the terms each adds to eq. 13 (before the
+ * kernel weight), in candidate order: computed once per radius query, read by every E(r). The
+ * distances are kept apart from the terms so that E(r) picks the planes within 2r in a few
+ * vector instructions. */
+struct CandidatePlanes
 {
-  /// Left uninitialised (candidatePlanes writes every field): growing the per-thread vector of
-  /// planes from ball to ball does not zero memory that is overwritten at once.
-  CandidatePlane() {}  // NOLINT(modernize-use-equals-default): = default would value-initialise
-  double distance;  ///< |p_j - c|
-  /// a_j × (n n^T: xx, xy, xz, yy, yz, zz; d n: x, y, z; d²; 1), d = n_j · (p_j - c), a_j eq. 1
-  double terms[12];  // the last is padding (0): whole SIMD pairs
+  /// a_j × (n n^T: xx, xy, xz, yy, yz, zz; d n: x, y, z; d²; 1), d = n_j · (p_j - c), a_j eq. 1;
+  /// the last is padding (0): whole SIMD pairs. Left uninitialised (candidatePlanes writes every
+  /// field): growing the per-thread planes from ball to ball does not zero memory overwritten at once.
+  struct Terms
+  {
+    Terms() {}  // NOLINT(modernize-use-equals-default): = default would value-initialise
+    double t[12];
+  };
+  std::vector<double> distance;  ///< |p_j - c|, padded with +inf to an even count
+  std::vector<Terms> terms;
+  std::size_t size() const { return terms.size(); }
+  void clear()
+  {
+    distance.clear();
+    terms.clear();
+  }
 };
 
 /** \brief The planes of `candidates`, in the same order; those before `first` are taken as
  * computed already (a source that appended candidates). */
 void candidatePlanes(const QuadricSamples& samples, const Eigen::Vector3d& centre,
-                     const std::vector<BallCandidate>& candidates, std::vector<CandidatePlane>& planes,
+                     const std::vector<BallCandidate>& candidates, CandidatePlanes& planes,
                      std::size_t first = 0);
 
 /** \brief Evaluate eq. 13-14 at radius r (> 0) over the `planes` within 2r. */
-RadiusEvaluation evaluateRadius(const std::vector<CandidatePlane>& planes, double r, double L,
-                                ErrorForm form);
+RadiusEvaluation evaluateRadius(const CandidatePlanes& planes, double r, double L, ErrorForm form);
 
 /** \brief The same from the candidates (computes their planes first). */
 RadiusEvaluation evaluateRadius(const QuadricSamples& samples, const Eigen::Vector3d& centre,
