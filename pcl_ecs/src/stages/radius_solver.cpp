@@ -184,8 +184,13 @@ RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d&
   double lo = -1.0, hi = -1.0, e_lo = 0.0, e_hi = 0.0;
   bool last_passed = false;
   // Evaluate r and move the matching end of the bracket; true when E(r) <= tolerance.
+  double prev_r = -1.0, prev_e = 0.0, last_r = -1.0, last_e = 0.0;  // the last two probes
   auto probe = [&](double r) {
     const RadiusEvaluation ev = eval(r);
+    prev_r = last_r;
+    prev_e = last_e;
+    last_r = r;
+    last_e = ev.error;
     last_passed = ev.error <= tolerance;
     if (last_passed)
     {
@@ -213,11 +218,16 @@ RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d&
     if (!(aim > floor && aim < start && probe(aim)) && !(hi > floor && probe(floor)))
       return sol;
   }
-  // Grow until E exceeds the tolerance or the cap is reached.
+  // Grow until E exceeds the tolerance or the cap is reached: aim just below the radius where E
+  // meets the tolerance, E ~ r^p with p from the last two probes (the local slope in log-log; 2
+  // until there are two), so that the next probe, just across it, closes the bracket.
   while (hi < 0.0 && lo < cap)
   {
-    const double step = std::min(std::max(predictFrom(lo, e_lo) / lo, 1.1), 2.0);
-    probe(std::min(lo * step, cap));
+    double p = 2.0;
+    if (prev_r > 0.0 && prev_e > 0.0 && last_e > 0.0 && std::abs(std::log(last_r / prev_r)) > 0.01)
+      p = std::min(std::max(std::log(last_e / prev_e) / std::log(last_r / prev_r), 0.5), 4.0);
+    const double aim = e_lo > 0.0 ? lo * std::pow(tolerance / e_lo, 1.0 / p) * 0.995 : 2.0 * lo;
+    probe(std::min(std::max(lo / kTight * 0.999, std::min(aim, 3.0 * lo)), cap));
   }
   // Refine between the last good and the first bad radius (to 2%).
   for (int it = 0; hi > 0.0 && lo < kTight * hi && it < 10; ++it)
@@ -227,6 +237,12 @@ RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d&
       theta = std::log(tolerance / e_lo) / std::log(e_hi / e_lo);
     const double predicted = lo * std::pow(hi / lo, std::min(std::max(theta, 0.0), 1.0));
     double r;
+    if (hi * kTight * kTight <= lo)
+    {
+      // Any radius in [kTight hi, lo / kTight] closes the bracket, whether it passes or fails.
+      probe(std::min(std::max(predicted, kTight * hi * 1.001), lo / kTight * 0.999));
+      continue;
+    }
     if (last_passed && predicted < lo / kTight)
       r = lo / kTight * 0.999;  // the root is just above the pass: a fail here closes the bracket
     else if (!last_passed && predicted > kTight * hi)
