@@ -111,11 +111,13 @@ struct CandidateSource
 
 /** \brief Eq. 15 solved for r in [floor, cap].
  * The bracket starts at `guess` (clamped to [floor, cap]; a typical radius of recent balls saves
- * evaluations): if E(guess) <= tolerance it grows (by the step E ~ r² predicts, ×1.1 to ×2) until
- * E exceeds it or the cap is reached; otherwise the radius E ~ r² predicts (just below it) is
- * tried, then the floor, which must pass. Interpolation in log E / log r (inside the inner 80% of
- * the bracket; a probe that lands near the predicted root is followed by one just across it, to
- * close the bracket from both sides) stops when the bracket is within 2%.
+ * evaluations): if E(guess) <= tolerance it grows, each probe aimed just below the radius where
+ * E ~ r^p meets the tolerance (p the log-log slope of the last two probes, 2 before there are
+ * two; at least ×1/0.98, at most ×3) until E exceeds it or the cap is reached; otherwise the
+ * radius E ~ r² predicts (just below it) is tried, then the floor, which must pass. Interpolation
+ * in log E / log r (inside the inner 80% of the bracket; a probe that lands near the predicted
+ * root is followed by one just across it, and a bracket within 4% is closed by one probe that
+ * closes it whatever its outcome) stops when the bracket is within 2%.
  * \param[in] floor   smallest radius tried (the distance to c's nearest non-feature neighbour)
  * \param[in] cap     largest radius allowed (> 0)
  * \param[in] guess   first radius tried (<= 0: the floor)
