@@ -43,3 +43,23 @@ TEST(SeededOrder, BelowIsInRangeAndRoughlyUniform)
   for (int c : counts)
     EXPECT_NEAR(c, 10000, 400);  // 4 standard deviations
 }
+
+// A part's stream (a cover cell's order) depends on the run's seed and the part's key only, and
+// neighbouring keys get unrelated orders.
+TEST(SeededOrder, PartSeedsAreReproducibleAndDistinct)
+{
+  EXPECT_EQ(pcl_ecs::partSeed(42, 7), pcl_ecs::partSeed(42, 7));
+  EXPECT_NE(pcl_ecs::partSeed(42, 7), pcl_ecs::partSeed(42, 8));
+  EXPECT_NE(pcl_ecs::partSeed(42, 7), pcl_ecs::partSeed(43, 7));
+  std::vector<int> a(64), b(64);
+  std::iota(a.begin(), a.end(), 0);
+  b = a;
+  pcl_ecs::seededShuffle(a.data(), a.size(), pcl_ecs::partSeed(1, 0));
+  pcl_ecs::seededShuffle(b.data(), b.size(), pcl_ecs::partSeed(1, 1));
+  EXPECT_NE(a, b);
+  // The range form is the vector form.
+  std::vector<int> c(64);
+  std::iota(c.begin(), c.end(), 0);
+  pcl_ecs::seededShuffle(c, pcl_ecs::partSeed(1, 0));
+  EXPECT_EQ(a, c);
+}

@@ -189,27 +189,41 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
   out.owner.assign(n, -1);
   const double cap = std::max(params.radius_cap_factor * in.neighborhood_radius, 0.0);
 
-  // Seeded order of the centres (step 3), and their box (read in cloud order, before the shuffle).
-  std::vector<int> order;
-  order.reserve(n);
+  // The centres (step 3): the non-feature points allowed to start a ball, and their box.
+  auto eligible = [&](std::size_t i) {
+    return !in.is_feature[i] && (!in.centre_allowed || (*in.centre_allowed)[i]) &&
+           (!in.pre_covered || !(*in.pre_covered)[i]);
+  };
+  const int threads = resolveThreads(params.threads);
+  const auto count = static_cast<std::ptrdiff_t>(n);
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
   Eigen::Vector3d hi = -lo;
-  for (std::size_t i = 0; i < n; ++i)
-    if (!in.is_feature[i] && (!in.centre_allowed || (*in.centre_allowed)[i]) &&
-        (!in.pre_covered || !(*in.pre_covered)[i]))
+#pragma omp parallel num_threads(threads)
+  {
+    Eigen::Vector3d lo_t = lo, hi_t = hi;
+#pragma omp for schedule(static) nowait
+    for (std::ptrdiff_t ii = 0; ii < count; ++ii)
     {
-      order.push_back(static_cast<int>(i));
-      lo = lo.cwiseMin(in.cloud[i].getVector3fMap().cast<double>());
-      hi = hi.cwiseMax(in.cloud[i].getVector3fMap().cast<double>());
+      const auto i = static_cast<std::size_t>(ii);
+      if (!eligible(i))
+        continue;
+      const Eigen::Vector3d q = in.cloud[i].getVector3fMap().cast<double>();
+      lo_t = lo_t.cwiseMin(q);
+      hi_t = hi_t.cwiseMax(q);
     }
-  seededShuffle(order, params.seed);
-  if (order.empty())
-    return;
+#pragma omp critical(pcl_ecs_cover_box)
+    {
+      lo = lo.cwiseMin(lo_t);  // min and max: the same whatever the order threads arrive in
+      hi = hi.cwiseMax(hi_t);
+    }
+  }
+  if (!(lo.x() <= hi.x()))
+    return;  // no centre
 
   // Cells of side s > 2·cap, coloured by the parity of their grid coordinates: two cells of one
   // colour are at least s apart, so balls centred in them (radius <= cap) cover disjoint sets and
   // can be made concurrently. The eight colours run one after another; inside a cell the centres
-  // keep the seeded order. The result depends on the cells, never on the thread count.
+  // come in a seeded order of their own. The result depends on the cells, never on the thread count.
   const double side = std::max(2.0 * cap * 1.001, 1e-12);
   // Cell coordinates packed into as few bits as the box needs (the sort below passes over the
   // bits in use): colour, then x, y, z, most significant first.
@@ -223,30 +237,35 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
       ++width[a];
   }
   const int colour_shift = width[0] + width[1] + width[2];
+  // Points that are not centres get "colour 8": after every cell, one bit above the colours.
+  const std::uint64_t not_a_centre = std::uint64_t{8} << colour_shift;
   struct Entry
   {
     std::uint64_t cell;  // colour in the bits from colour_shift up, then the cell coordinates
-    std::uint32_t rank;  // position in the seeded order
     int point;
   };
-  const int threads = resolveThreads(params.threads);
-  std::vector<Entry, UninitialisedAllocator<Entry>> entries(order.size());  // every entry written below
-  const auto centres = static_cast<std::ptrdiff_t>(order.size());
+  std::vector<Entry, UninitialisedAllocator<Entry>> entries(n);  // every entry written below
 #pragma omp parallel for schedule(static) num_threads(threads)
-  for (std::ptrdiff_t ri = 0; ri < centres; ++ri)
+  for (std::ptrdiff_t ii = 0; ii < count; ++ii)
   {
-    const auto r = static_cast<std::size_t>(ri);
-    const Eigen::Vector3d q = (in.cloud[order[r]].getVector3fMap().cast<double>() - lo) / side;
+    const auto i = static_cast<std::size_t>(ii);
+    if (!eligible(i))
+    {
+      entries[i] = {not_a_centre, static_cast<int>(i)};
+      continue;
+    }
+    const Eigen::Vector3d q = (in.cloud[i].getVector3fMap().cast<double>() - lo) / side;
     const std::uint64_t ix = static_cast<std::uint64_t>(std::min(q.x(), kMaxCell));
     const std::uint64_t iy = static_cast<std::uint64_t>(std::min(q.y(), kMaxCell));
     const std::uint64_t iz = static_cast<std::uint64_t>(std::min(q.z(), kMaxCell));
     const std::uint64_t colour = (ix & 1u) | ((iy & 1u) << 1) | ((iz & 1u) << 2);
-    entries[r] = {(colour << colour_shift) | (ix << (width[1] + width[2])) | (iy << width[2]) | iz,
-                  static_cast<std::uint32_t>(r), order[r]};
+    entries[i] = {(colour << colour_shift) | (ix << (width[1] + width[2])) | (iy << width[2]) | iz,
+                  static_cast<int>(i)};
   }
-  // By cell; the entries are in rank order and the sort is stable: by (cell, rank), one order
-  // whatever the threads.
+  // By cell (points read in cloud order, the sort stable: one order whatever the threads).
   radixSortStable(entries, [](const Entry& e) { return e.cell; }, threads);
+  while (!entries.empty() && entries.back().cell == not_a_centre)
+    entries.pop_back();
   // Cell boundaries, and where each colour starts.
   std::vector<std::size_t> cell_begin;
   for (std::size_t e = 0; e < entries.size(); ++e)
@@ -254,6 +273,16 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
       cell_begin.push_back(e);
   const std::size_t cells = cell_begin.size();
   cell_begin.push_back(entries.size());
+  // Each cell's centres in a seeded order drawn from the run's seed and the cell's key (a uniform
+  // order within each cell, as a global shuffle would give, without its scattered reads).
+  const auto cell_count = static_cast<std::ptrdiff_t>(cells);
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (std::ptrdiff_t k = 0; k < cell_count; ++k)
+  {
+    const std::size_t b = cell_begin[static_cast<std::size_t>(k)];
+    seededShuffle(entries.data() + b, cell_begin[static_cast<std::size_t>(k) + 1] - b,
+                  partSeed(params.seed, entries[b].cell));
+  }
   // Cells are candidates colour-major: colour_begin[col] is the first cell of colour >= col.
   std::vector<std::size_t> colour_begin(9, cells);
   std::size_t next_colour = 0;
@@ -306,10 +335,14 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
       out.radius_evaluations += b.evaluations;
       out.balls.push_back(std::move(b));
     }
-  for (std::size_t i = 0; i < n; ++i)
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (std::ptrdiff_t ii = 0; ii < count; ++ii)
+  {
+    const auto i = static_cast<std::size_t>(ii);
     if (owner[i] >= 0 && owner[i] != kPreCovered)
       out.owner[i] = static_cast<int>(first_id[static_cast<std::size_t>(owner[i] >> 32)] +
                                       static_cast<std::size_t>(owner[i] & 0xFFFFFFFF));
+  }
 }
 
 }  // namespace pcl_ecs

@@ -4,7 +4,9 @@
 // std::uniform_int_distribution are implementation-defined.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace pcl_ecs
@@ -39,16 +41,32 @@ private:
   std::uint64_t state_;
 };
 
-/** \brief Shuffle `items` in place with Fisher-Yates driven by SplitMix64(seed). */
+/** \brief Shuffle items[0, count) in place with Fisher-Yates driven by SplitMix64(seed). */
 template <typename T>
-void seededShuffle(std::vector<T>& items, std::uint64_t seed)
+void seededShuffle(T* items, std::size_t count, std::uint64_t seed)
 {
   SplitMix64 rng(seed);
-  for (std::size_t i = items.size(); i > 1; --i)
+  for (std::size_t i = count; i > 1; --i)
   {
     const std::size_t j = static_cast<std::size_t>(rng.below(i));
     std::swap(items[i - 1], items[j]);
   }
+}
+
+/** \brief Shuffle `items` in place with Fisher-Yates driven by SplitMix64(seed). */
+template <typename T, typename A>
+void seededShuffle(std::vector<T, A>& items, std::uint64_t seed)
+{
+  seededShuffle(items.data(), items.size(), seed);
+}
+
+/** \brief A seed for one part of a run (a cell, a tile) drawn from the run's seed and the part's
+ * key: different parts get unrelated streams, and a part's stream depends on nothing else. */
+inline std::uint64_t partSeed(std::uint64_t seed, std::uint64_t key)
+{
+  SplitMix64 mix(seed ^ (key * 0x9E3779B97F4A7C15ull));
+  mix.next();
+  return mix.next();
 }
 
 }  // namespace pcl_ecs
