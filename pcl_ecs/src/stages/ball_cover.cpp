@@ -102,7 +102,10 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
   // Steps 4-5: the radius and the optimised point. The floor is dens_c (eq. 5), the cap a
   // multiple of the mean neighbourhood radius.
   const QuadricSamples samples{in.cloud, in.normals, in.weights};
-  const double guess = std::max(w.typical_radius, in.density[cs]);
+  // E grows about like r² near the root, so a ball whose tolerance step 5 scaled by f has a radius
+  // about sqrt(f) times that of a ball at the base tolerance: the typical radius is kept at the base.
+  const double class_scale = std::sqrt(ball.tolerance / error_threshold);
+  const double guess = std::max(w.typical_radius * class_scale, in.density[cs]);
   RadiusQuerySource source(in.search, in.is_feature, in.cloud[c], 2.0 * cap, 2.0 * guess, w.found, w.d2);
   w.candidates.clear();
   const RadiusSolution sol = solveRadius(samples, centre, in.density[cs], cap, guess,
@@ -112,7 +115,7 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
   ball.radius = sol.radius;
   ball.error = sol.error;
   if (sol.radius > 0.0)
-    w.typical_radius = 0.9 * w.typical_radius + 0.1 * sol.radius;
+    w.typical_radius = 0.8 * w.typical_radius + 0.2 * sol.radius / class_scale;
 
   // The optimised point, unless it lies farther than max_representative_offset × r from c (the
   // paper's rule is r itself: outside the ball means a sharp feature, and c stands for it).
@@ -298,8 +301,25 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
     for (std::size_t i = 0; i < n; ++i)
       if ((*in.pre_covered)[i])
         owner[i] = kPreCovered;
+  // A cell's first guess: the geometric mean of the base-tolerance radii of the balls of the
+  // colours before (known and fixed before the colour starts: the same whatever the threads).
+  double start_radius = in.neighborhood_radius;
+  double log_sum = 0.0;
+  std::size_t log_count = 0;
   for (int col = 0; col < 8; ++col)
   {
+    if (col > 0)
+    {
+      for (std::size_t k = colour_begin[static_cast<std::size_t>(col) - 1]; k < colour_begin[static_cast<std::size_t>(col)]; ++k)
+        for (const CoverBall& b : cell_balls[k])
+          if (b.radius > 0.0)
+          {
+            log_sum += std::log(b.radius / std::sqrt(b.tolerance / error_threshold));
+            ++log_count;
+          }
+      if (log_count > 0)
+        start_radius = std::exp(log_sum / static_cast<double>(log_count));
+    }
     const std::ptrdiff_t first = static_cast<std::ptrdiff_t>(colour_begin[static_cast<std::size_t>(col)]);
     const std::ptrdiff_t last = static_cast<std::ptrdiff_t>(colour_begin[static_cast<std::size_t>(col) + 1]);
 #pragma omp parallel num_threads(threads)
@@ -309,7 +329,7 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
       for (std::ptrdiff_t k = first; k < last; ++k)
       {
         const std::size_t cell = static_cast<std::size_t>(k);
-        w.typical_radius = in.neighborhood_radius;
+        w.typical_radius = start_radius;
         std::vector<CoverBall>& balls = cell_balls[cell];
         for (std::size_t e = cell_begin[cell]; e < cell_begin[cell + 1]; ++e)
         {
