@@ -104,6 +104,17 @@ TEST_F(StreamCli, KilledRunResumesToTheSameBytes)
     fs::remove(path("again.pcd"));
   }
   EXPECT_FALSE(fs::exists(path("scratch")));
+  // A tile's saved point order (phase A writes it, later phases read it) that no longer matches
+  // the tile's points is refused, with nothing written.
+  const RunResult killed = runTool(kSimplify, args("again.pcd") + " --quiet --debug-kill-after " + std::to_string(tiles + 1));
+  ASSERT_EQ(killed.signal, SIGKILL) << killed.err;
+  const fs::path order = fs::path(path("scratch")) / "a" / "0.order";
+  ASSERT_TRUE(fs::exists(order));
+  fs::resize_file(order, fs::file_size(order) - 4);
+  const RunResult damaged = runTool(kSimplify, args("again.pcd") + " --quiet");
+  EXPECT_NE(damaged.code, 0);
+  EXPECT_NE(damaged.err.find("damaged"), std::string::npos) << damaged.err;
+  EXPECT_FALSE(fs::exists(path("again.pcd")));
 }
 
 TEST_F(StreamCli, PeakMemoryStaysUnderTheLimit)

@@ -309,6 +309,8 @@ struct TileData
   std::vector<std::uint32_t> src_tile, src_index;
   std::vector<std::uint8_t> is_core;
   std::vector<std::uint8_t> records;  // point_step bytes each
+  /// order[o]: where point o was in the tile's files (core points first, then the halo's)
+  std::vector<std::uint32_t> order;
   std::size_t size() const { return gid.size(); }
 };
 
@@ -320,6 +322,7 @@ struct Paths
   fs::path attr(int t) const { return root / "a" / (std::to_string(t) + ".attr"); }
   fs::path sumA(int t) const { return root / "a" / (std::to_string(t) + ".sum"); }
   fs::path frontier(int t) const { return root / "a" / (std::to_string(t) + ".front"); }
+  fs::path order(int t) const { return root / "a" / (std::to_string(t) + ".order"); }
   fs::path dens(int t) const { return root / "b" / (std::to_string(t) + ".dens"); }
   fs::path sumB(int t) const { return root / "b" / (std::to_string(t) + ".sum"); }
   fs::path out(int t) const { return root / "c" / (std::to_string(t) + ".out"); }
@@ -852,37 +855,62 @@ TileData Runner::loadTile(int t) const
   const auto halo = readVector<std::uint8_t>(paths_.halo(t));
   const std::size_t nc = core.size() / (8 + step), nh = halo.size() / (16 + step);
   const std::size_t n = nc + nh;
-  // Sorted by Hilbert code in the global box, ties by input index: the same order for a point
-  // whichever tile loads it, so neighbour ties break the same way everywhere.
-  // The (code, input index) pairs are distinct (input indices are): one order.
-  struct Key
-  {
-    std::uint64_t code, gid;
-    std::uint32_t at;
-  };
-  std::vector<Key> keys(n);
-  std::vector<Eigen::Vector3d> pos(n);
   auto at = [&](std::size_t i) -> const std::uint8_t* {
     return i < nc ? core.data() + i * (8 + step) : halo.data() + (i - nc) * (16 + step);
   };
-  for (std::size_t i = 0; i < n; ++i)
-  {
-    const std::uint8_t* r = at(i);
-    std::uint64_t gid;
-    std::memcpy(&gid, r, 8);
-    const std::uint8_t* rec = r + (i < nc ? 8 : 16);
-    xyz.get(rec, pos[i].x(), pos[i].y(), pos[i].z());
-    keys[i] = {0, gid, static_cast<std::uint32_t>(i)};
-  }
-  {
-    std::vector<std::uint64_t> codes(n);
-    spatialCodes(pos.data(), n, plan_.lo, plan_.hi, codes.data());  // several points per instruction
-    for (std::size_t i = 0; i < n; ++i)
-      keys[i].code = codes[i];
-  }
-  radixSortThenTies(keys, [](const Key& k) { return k.code; },
-                    [](const Key& a, const Key& b) { return a.gid < b.gid; });
+  auto position = [&](std::size_t i) {
+    Eigen::Vector3d p;
+    xyz.get(at(i) + (i < nc ? 8 : 16), p.x(), p.y(), p.z());
+    return p;
+  };
   TileData d;
+  // Sorted by Hilbert code in the global box, ties by input index: the same order for a point
+  // whichever tile loads it, so neighbour ties break the same way everywhere. Phase A saves the
+  // order it found; later loads of the tile read it instead of sorting again.
+  if (fs::exists(paths_.order(t)))
+  {
+    d.order = readVector<std::uint32_t>(paths_.order(t));
+    std::vector<std::uint8_t> seen(n, 0);
+    bool valid = d.order.size() == n;
+    for (std::size_t o = 0; valid && o < n; ++o)
+    {
+      valid = d.order[o] < n && !seen[d.order[o]];
+      if (valid)
+        seen[d.order[o]] = 1;
+    }
+    if (!valid)
+      failRun("the saved point order of tile " + std::to_string(t) +
+              " does not match its points: the scratch directory is damaged; remove it and run again");
+  }
+  else
+  {
+    // The (code, input index) pairs are distinct (input indices are): one order.
+    struct Key
+    {
+      std::uint64_t code, gid;
+      std::uint32_t at;
+    };
+    std::vector<Key> keys(n);
+    std::vector<Eigen::Vector3d> pos(n);
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      std::uint64_t gid;
+      std::memcpy(&gid, at(i), 8);
+      pos[i] = position(i);
+      keys[i] = {0, gid, static_cast<std::uint32_t>(i)};
+    }
+    {
+      std::vector<std::uint64_t> codes(n);
+      spatialCodes(pos.data(), n, plan_.lo, plan_.hi, codes.data());  // several points per instruction
+      for (std::size_t i = 0; i < n; ++i)
+        keys[i].code = codes[i];
+    }
+    radixSortThenTies(keys, [](const Key& k) { return k.code; },
+                      [](const Key& a, const Key& b) { return a.gid < b.gid; });
+    d.order.resize(n);
+    for (std::size_t o = 0; o < n; ++o)
+      d.order[o] = keys[o].at;
+  }
   d.cloud->resize(n);
   d.gid.resize(n);
   d.src_tile.resize(n);
@@ -890,12 +918,15 @@ TileData Runner::loadTile(int t) const
   d.is_core.resize(n);
   d.records.resize(n * step);
   const Eigen::Vector3d origin = plan_.origin();
+  constexpr std::size_t kAhead = 8;  // records fetched ahead: the gather's reads are scattered
   for (std::size_t o = 0; o < n; ++o)
   {
-    const std::size_t i = keys[o].at;
+    if (o + kAhead < n)
+      __builtin_prefetch(at(d.order[o + kAhead]));
+    const std::size_t i = d.order[o];
     const std::uint8_t* r = at(i);
-    (*d.cloud)[o].getVector3fMap() = (pos[i] - origin).cast<float>();
-    d.gid[o] = keys[o].gid;
+    (*d.cloud)[o].getVector3fMap() = (position(i) - origin).cast<float>();
+    std::memcpy(&d.gid[o], r, 8);
     d.is_core[o] = i < nc;
     if (i < nc)
     {
@@ -1020,6 +1051,7 @@ void Runner::phaseA(int t)
   front_count.insert(front_count.end(), front.begin(), front.end());
   fs::create_directories(paths_.root / "a");
   writeVectorAtomic(paths_.frontier(t), front_count);
+  writeVectorAtomic(paths_.order(t), d.order);
   writeVectorAtomic(paths_.attr(t), attr);
   writeVectorAtomic(paths_.sumA(t), sums);  // the marker: written last
 }
