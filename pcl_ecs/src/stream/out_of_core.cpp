@@ -1024,8 +1024,11 @@ void Runner::phaseA(int t)
   // depends on δ, known only when every tile has passed this phase. Keep, for each own point, the
   // neighbours whose measure is below that of every nearer one: for any δ the first non-feature
   // neighbour is among them, so phase B needs neither the points nor a search.
+  // Entries: the neighbour's squared distance (f32) and its index in the tile (its measure is in
+  // the attributes, halo points' too), 8 bytes each after a count byte per point.
   std::vector<std::uint8_t> front_count(n, 0xFF);  // 0xFF: a halo point (not needed)
   std::vector<std::uint8_t> front;
+  front.reserve(n * 4 * 8);
   for (std::size_t i = 0; i < n; ++i)
   {
     if (!d.is_core[i])
@@ -1035,15 +1038,17 @@ void Runner::phaseA(int t)
     std::uint8_t count = 0;
     for (int j = 0; j < k; ++j)
     {
-      const double m = measure[static_cast<std::size_t>(nb[j])];
+      const auto q = static_cast<std::size_t>(nb[j]);
+      const double m = measure[q];
       if (!(m < lowest))
         continue;
       lowest = m;
-      std::uint8_t entry[12];
-      const float d2 = sqrDistance(*d.cloud, i, static_cast<std::size_t>(nb[j]));
-      std::memcpy(entry, &d2, 4);
-      std::memcpy(entry + 4, &m, 8);
-      front.insert(front.end(), entry, entry + 12);
+      const float d2 = sqrDistance(*d.cloud, i, q);
+      const auto index = static_cast<std::uint32_t>(q);
+      const std::size_t at = front.size();
+      front.resize(at + 8);
+      std::memcpy(front.data() + at, &d2, 4);
+      std::memcpy(front.data() + at + 4, &index, 4);
       ++count;
     }
     front_count[i] = count;
@@ -1069,6 +1074,9 @@ void Runner::phaseB(int t)
     // From the neighbour lists of phase A; a point whose K neighbours are all features needs a
     // search over the non-feature points: then the tile is loaded (below).
     const auto front = readVector<std::uint8_t>(paths_.frontier(t));
+    if (front.size() < n)
+      failRun("the neighbour lists of tile " + std::to_string(t) +
+              " do not match its points: the scratch directory is damaged; remove it and run again");
     std::size_t at = n;
     bool complete = true;
     for (std::size_t i = 0; i < n && complete; ++i)
@@ -1078,15 +1086,18 @@ void Runner::phaseB(int t)
         continue;  // a halo point
       const bool feature = attr.value(i, 1) > delta_;
       bool found = feature;
-      for (std::uint8_t e = 0; e < count; ++e, at += 12)
+      for (std::uint8_t e = 0; e < count; ++e, at += 8)
       {
         if (found)
           continue;
         float d2;
-        double m;
+        std::uint32_t index;
         std::memcpy(&d2, front.data() + at, 4);
-        std::memcpy(&m, front.data() + at + 4, 8);
-        if (!(m > delta_))
+        std::memcpy(&index, front.data() + at + 4, 4);
+        if (index >= n || at + 8 > front.size())
+          failRun("the neighbour lists of tile " + std::to_string(t) +
+                  " do not match its points: the scratch directory is damaged; remove it and run again");
+        if (!(attr.value(index, 1) > delta_))
         {
           density[i] = std::sqrt(static_cast<double>(d2));
           found = true;
