@@ -81,6 +81,7 @@ struct Scratch
   std::vector<Eigen::Vector3d> offsets;
   std::vector<double> distances;  // |offset|, as the radius query measured it
   std::vector<int> members;
+  std::vector<std::uint32_t> picked;  // positions of the members among the candidates
   std::vector<std::uint8_t> inside;
   double typical_radius = 0.0;  // first query guess; adapts to the balls of this worker's cell
 };
@@ -124,16 +125,24 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
   ball.representative = centre + v_offset;
 
   // Members: the non-feature points within r (c among them, at distance 0).
-  w.offsets.clear();
-  w.distances.clear();
-  w.members.clear();
-  for (const BallCandidate& cand : w.candidates)
+  // Picked without a branch per candidate (about one in eight is a member: a branch would
+  // mispredict on most members), then gathered.
+  w.picked.resize(w.candidates.size());
+  std::size_t picked = 0;
+  for (std::size_t j = 0; j < w.candidates.size(); ++j)
   {
-    if (cand.distance > sol.radius)
-      continue;
-    w.members.push_back(cand.index);
-    w.distances.push_back(cand.distance);
-    w.offsets.push_back(in.cloud[cand.index].getVector3fMap().cast<double>() - centre);
+    w.picked[picked] = static_cast<std::uint32_t>(j);
+    picked += w.candidates[j].distance <= sol.radius ? 1 : 0;
+  }
+  w.offsets.resize(picked);
+  w.distances.resize(picked);
+  w.members.resize(picked);
+  for (std::size_t m = 0; m < picked; ++m)
+  {
+    const BallCandidate& cand = w.candidates[w.picked[m]];
+    w.members[m] = cand.index;
+    w.distances[m] = cand.distance;
+    w.offsets[m] = in.cloud[cand.index].getVector3fMap().cast<double>() - centre;
   }
   if (std::find(w.members.begin(), w.members.end(), c) == w.members.end())
   {
