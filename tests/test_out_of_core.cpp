@@ -292,13 +292,40 @@ TEST_F(OutOfCore, MatchesTheInMemoryFilter)
   for (const Run& r : mem)
     std::printf("in memory: %zu points, surface RMS %.4g p99 %.4g, coverage mean %.4g max %.4g\n", r.size,
                 r.q.surface_rms, r.q.surface_p99, r.q.coverage_mean, r.q.coverage_max);
-  std::printf("streamed:  %zu points, surface RMS %.4g p99 %.4g, coverage mean %.4g max %.4g (%zu tiles)\n",
-              streamed.size(), qs.surface_rms, qs.surface_p99, qs.coverage_mean, qs.coverage_max, s.tiles.size());
-  within("output size", static_cast<double>(streamed.size()), [](const Run& r) { return static_cast<double>(r.size); }, 0.01, true);
-  within("coverage mean", qs.coverage_mean, [](const Run& r) { return r.q.coverage_mean; }, 0.03, true);
-  within("surface RMS", qs.surface_rms, [](const Run& r) { return r.q.surface_rms; }, 0.03, true);
-  within("surface p99", qs.surface_p99, [](const Run& r) { return r.q.surface_p99; }, 0.10, false);
-  within("coverage max", qs.coverage_max, [](const Run& r) { return r.q.coverage_max; }, 0.10, false);
+  // The streamed run is a sample too (another cover order per tile): its seeds 42, 1 and 2, and
+  // their mean held to the in-memory seeds' range. On the sanitizers' 60k-point scan (~1,900 output
+  // points, 50 tiles) one seed's surface RMS alone moves ~8% (3.98-4.35e-4 over seven seeds).
+  std::vector<Run> str{{streamed.size(), qs}};
+  for (const std::uint64_t seed : {1u, 2u})
+  {
+    Parameters p = params;
+    p.seed = seed;
+    StreamOptions o = tiled("scratch-seed" + std::to_string(seed));
+    const std::string out = path("out-seed" + std::to_string(seed) + ".pcd");
+    simplifyOutOfCore(path("scan.pcd"), out, p, o);
+    Run r{0, {}};
+    const auto cloud = loadXyz(out);
+    r.size = cloud.size();
+    ASSERT_TRUE(eval::evaluateQuality(original, cloud, nullptr, r.q));
+    str.push_back(r);
+  }
+  Run mean{0, {}};
+  double size_sum = 0.0;
+  for (const Run& r : str)
+  {
+    std::printf("streamed:  %zu points, surface RMS %.4g p99 %.4g, coverage mean %.4g max %.4g (%zu tiles)\n",
+                r.size, r.q.surface_rms, r.q.surface_p99, r.q.coverage_mean, r.q.coverage_max, s.tiles.size());
+    size_sum += static_cast<double>(r.size);
+    mean.q.surface_rms += r.q.surface_rms / 3.0;
+    mean.q.surface_p99 += r.q.surface_p99 / 3.0;
+    mean.q.coverage_mean += r.q.coverage_mean / 3.0;
+    mean.q.coverage_max += r.q.coverage_max / 3.0;
+  }
+  within("output size", size_sum / 3.0, [](const Run& r) { return static_cast<double>(r.size); }, 0.01, true);
+  within("coverage mean", mean.q.coverage_mean, [](const Run& r) { return r.q.coverage_mean; }, 0.03, true);
+  within("surface RMS", mean.q.surface_rms, [](const Run& r) { return r.q.surface_rms; }, 0.03, true);
+  within("surface p99", mean.q.surface_p99, [](const Run& r) { return r.q.surface_p99; }, 0.10, false);
+  within("coverage max", mean.q.coverage_max, [](const Run& r) { return r.q.coverage_max; }, 0.10, false);
   // The gap bound holds across tiles (phase D): no input point farther than it from the output.
   EXPECT_GT(s.gap_points, 0u);
   const double gap = params.max_gap_factor * params.radius_cap_factor * s.neighborhood_radius;
