@@ -11,8 +11,9 @@
 //
 // Parallel and deterministic: the centres are bucketed into cells of side > 2·cap coloured by the
 // parity of their grid coordinates (8 colours); cells of one colour are processed concurrently
-// (their balls cannot touch), colours one after another, centres in seeded order within a cell.
-// The output depends on the seed and the cells, never on the thread count.
+// (their balls cannot touch), colours one after another; the centres of a cell come in a seeded
+// order of its own (seeded from the run's seed and the cell's key). The output depends on the seed
+// and the cells, never on the thread count.
 #pragma once
 
 #include <pcl_ecs/parameters.h>
