@@ -115,6 +115,25 @@ TEST_F(StreamCli, KilledRunResumesToTheSameBytes)
   EXPECT_NE(damaged.code, 0);
   EXPECT_NE(damaged.err.find("damaged"), std::string::npos) << damaged.err;
   EXPECT_FALSE(fs::exists(path("again.pcd")));
+  // So are phase A's neighbour lists cut short (read by phase B, for the tiles it has not done).
+  fs::remove_all(path("scratch"));
+  const RunResult killed_again = runTool(kSimplify, args("again.pcd") + " --quiet --debug-kill-after " + std::to_string(tiles + 1));
+  ASSERT_EQ(killed_again.signal, SIGKILL) << killed_again.err;
+  std::size_t cut = 0;
+  for (std::size_t t = 0; t < tiles; ++t)
+  {
+    const fs::path root(path("scratch"));
+    const fs::path front = root / "a" / (std::to_string(t) + ".front");
+    if (fs::exists(root / "b" / (std::to_string(t) + ".sum")) || !fs::exists(front))
+      continue;
+    fs::resize_file(front, fs::file_size(front) - 4);
+    ++cut;
+  }
+  ASSERT_GT(cut, 0u);
+  const RunResult cut_short = runTool(kSimplify, args("again.pcd") + " --quiet");
+  EXPECT_NE(cut_short.code, 0);
+  EXPECT_NE(cut_short.err.find("neighbour lists"), std::string::npos) << cut_short.err;
+  EXPECT_FALSE(fs::exists(path("again.pcd")));
 }
 
 TEST_F(StreamCli, PeakMemoryStaysUnderTheLimit)

@@ -1090,13 +1090,18 @@ void Runner::phaseB(int t)
       {
         if (found)
           continue;
+        auto damaged = [&] {
+          failRun("the neighbour lists of tile " + std::to_string(t) +
+                  " do not match its points: the scratch directory is damaged; remove it and run again");
+        };
+        if (at + 8 > front.size())
+          damaged();
         float d2;
         std::uint32_t index;
         std::memcpy(&d2, front.data() + at, 4);
         std::memcpy(&index, front.data() + at + 4, 4);
-        if (index >= n || at + 8 > front.size())
-          failRun("the neighbour lists of tile " + std::to_string(t) +
-                  " do not match its points: the scratch directory is damaged; remove it and run again");
+        if (index >= n)
+          damaged();
         if (!(attr.value(index, 1) > delta_))
         {
           density[i] = std::sqrt(static_cast<double>(d2));
