@@ -75,6 +75,12 @@ std::uint64_t residentBytes()
   throw std::runtime_error(what);
 }
 
+/// A scratch file that does not match what the run wrote: `what` says which and how.
+[[noreturn]] void failDamaged(const std::string& what)
+{
+  failRun(what + ": the scratch directory is damaged; remove it and run again");
+}
+
 // ---- scratch files: written under a temporary name, renamed when complete -------------------
 void writeFileAtomic(const fs::path& path, const void* data, std::size_t bytes)
 {
@@ -879,8 +885,7 @@ TileData Runner::loadTile(int t) const
         seen[d.order[o]] = 1;
     }
     if (!valid)
-      failRun("the saved point order of tile " + std::to_string(t) +
-              " does not match its points: the scratch directory is damaged; remove it and run again");
+      failDamaged("the saved point order of tile " + std::to_string(t) + " does not match its points");
   }
   else
   {
@@ -1074,9 +1079,10 @@ void Runner::phaseB(int t)
     // From the neighbour lists of phase A; a point whose K neighbours are all features needs a
     // search over the non-feature points: then the tile is loaded (below).
     const auto front = readVector<std::uint8_t>(paths_.frontier(t));
+    const std::string lists_damaged =
+        "the neighbour lists of tile " + std::to_string(t) + " do not match its points";
     if (front.size() < n)
-      failRun("the neighbour lists of tile " + std::to_string(t) +
-              " do not match its points: the scratch directory is damaged; remove it and run again");
+      failDamaged(lists_damaged);
     std::size_t at = n;
     bool complete = true;
     for (std::size_t i = 0; i < n && complete; ++i)
@@ -1090,18 +1096,14 @@ void Runner::phaseB(int t)
       {
         if (found)
           continue;
-        auto damaged = [&] {
-          failRun("the neighbour lists of tile " + std::to_string(t) +
-                  " do not match its points: the scratch directory is damaged; remove it and run again");
-        };
         if (at + 8 > front.size())
-          damaged();
+          failDamaged(lists_damaged);
         float d2;
         std::uint32_t index;
         std::memcpy(&d2, front.data() + at, 4);
         std::memcpy(&index, front.data() + at + 4, 4);
         if (index >= n)
-          damaged();
+          failDamaged(lists_damaged);
         if (!(attr.value(index, 1) > delta_))
         {
           density[i] = std::sqrt(static_cast<double>(d2));
@@ -1184,8 +1186,8 @@ void Runner::phaseC(int t)
     if (d.src_tile[i] < is_source.size())
       is_source[d.src_tile[i]] = 1;
     else
-      failRun("tile " + std::to_string(t) + "'s halo names tile " + std::to_string(d.src_tile[i]) +
-              ", which does not exist: the scratch directory is damaged; remove it and run again");
+      failDamaged("tile " + std::to_string(t) + "'s halo names tile " + std::to_string(d.src_tile[i]) +
+                  ", which does not exist");
   std::vector<std::uint8_t> pre_covered(n, 0);
   for (int s = 0; s < static_cast<int>(is_source.size()); ++s)
   {
