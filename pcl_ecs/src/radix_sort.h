@@ -21,21 +21,14 @@ namespace pcl_ecs
 
 namespace radix_detail
 {
-inline std::size_t teamSize()
+/// The calling thread's team: its size and this thread's index in it (1 and 0 without OpenMP).
+inline std::pair<std::size_t, std::size_t> team()
 {
 #ifdef _OPENMP
-  return static_cast<std::size_t>(omp_get_num_threads());
+  return {static_cast<std::size_t>(omp_get_num_threads()),
+          static_cast<std::size_t>(omp_get_thread_num())};
 #else
-  return 1;
-#endif
-}
-
-inline std::size_t teamIndex()
-{
-#ifdef _OPENMP
-  return static_cast<std::size_t>(omp_get_thread_num());
-#else
-  return 0;
+  return {1, 0};
 #endif
 }
 }  // namespace radix_detail
@@ -68,7 +61,7 @@ void radixSortStable(std::vector<T, A>& items, KeyFn key, int threads = 1)
       continue;  // every key has the same digit here: the pass would not move anything
 #pragma omp parallel num_threads(team_max) if (team_max > 1)
     {
-      const std::size_t team = radix_detail::teamSize(), t = radix_detail::teamIndex();
+      const auto [team, t] = radix_detail::team();
       const std::size_t b = n * t / team, e = n * (t + 1) / team;
       std::array<std::size_t, kBuckets>& mine = start[t];
       mine.fill(0);

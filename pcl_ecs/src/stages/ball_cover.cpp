@@ -72,6 +72,14 @@ private:
 
 namespace
 {
+/// E grows about like r² near the root, so a ball whose tolerance step 5 scaled by f has a radius
+/// about sqrt(f) times that of a ball at the base tolerance: radii divided by this are comparable
+/// across the tolerance classes (the running guess and each colour's start are kept at the base).
+double toleranceClassScale(double tolerance, double base_tolerance)
+{
+  return std::sqrt(tolerance / base_tolerance);
+}
+
 /// Scratch space of one worker, reused from ball to ball.
 struct Scratch
 {
@@ -103,9 +111,7 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
   // Steps 4-5: the radius and the optimised point. The floor is dens_c (eq. 5), the cap a
   // multiple of the mean neighbourhood radius.
   const QuadricSamples samples{in.cloud, in.normals, in.weights};
-  // E grows about like r² near the root, so a ball whose tolerance step 5 scaled by f has a radius
-  // about sqrt(f) times that of a ball at the base tolerance: the typical radius is kept at the base.
-  const double class_scale = std::sqrt(ball.tolerance / error_threshold);
+  const double class_scale = toleranceClassScale(ball.tolerance, error_threshold);
   const double guess = std::max(w.typical_radius * class_scale, in.density[cs]);
   RadiusQuerySource source(in.search, in.is_feature, in.cloud[c], 2.0 * cap, 2.0 * guess, w.found, w.d2);
   w.candidates.clear();
@@ -319,11 +325,12 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
   {
     if (col > 0)
     {
-      for (std::size_t k = colour_begin[static_cast<std::size_t>(col) - 1]; k < colour_begin[static_cast<std::size_t>(col)]; ++k)
+      const auto c = static_cast<std::size_t>(col);
+      for (std::size_t k = colour_begin[c - 1]; k < colour_begin[c]; ++k)
         for (const CoverBall& b : cell_balls[k])
           if (b.radius > 0.0)
           {
-            log_sum += std::log(b.radius / std::sqrt(b.tolerance / error_threshold));
+            log_sum += std::log(b.radius / toleranceClassScale(b.tolerance, error_threshold));
             ++log_count;
           }
       if (log_count > 0)
