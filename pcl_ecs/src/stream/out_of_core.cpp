@@ -870,6 +870,7 @@ TileData Runner::loadTile(int t) const
     return p;
   };
   TileData d;
+  std::vector<Eigen::Vector3d> pos;  // positions by file order, when the order is computed here
   // Sorted by Hilbert code in the global box, ties by input index: the same order for a point
   // whichever tile loads it, so neighbour ties break the same way everywhere. Phase A saves the
   // order it found; later loads of the tile read it instead of sorting again.
@@ -896,7 +897,7 @@ TileData Runner::loadTile(int t) const
       std::uint32_t at;
     };
     std::vector<Key> keys(n);
-    std::vector<Eigen::Vector3d> pos(n);
+    pos.resize(n);
     for (std::size_t i = 0; i < n; ++i)
     {
       std::uint64_t gid;
@@ -930,7 +931,7 @@ TileData Runner::loadTile(int t) const
       __builtin_prefetch(at(d.order[o + kAhead]));
     const std::size_t i = d.order[o];
     const std::uint8_t* r = at(i);
-    (*d.cloud)[o].getVector3fMap() = (position(i) - origin).cast<float>();
+    (*d.cloud)[o].getVector3fMap() = ((pos.empty() ? position(i) : pos[i]) - origin).cast<float>();
     std::memcpy(&d.gid[o], r, 8);
     d.is_core[o] = i < nc;
     if (i < nc)
