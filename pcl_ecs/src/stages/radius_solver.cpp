@@ -2,6 +2,8 @@
 
 #include <pcl_ecs/stages/kernel.h>
 
+#include "../plane_sums.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -56,33 +58,17 @@ void candidatePlanes(const QuadricSamples& samples, const Eigen::Vector3d& centr
   }
 }
 
-namespace
-{
-/// sum += g × terms, term by term (the same operations, in the same order, as the scalar loop).
-inline void addWeighted(double* sum, const double* terms, double g)
-{
-#ifdef __SSE2__
-  const __m128d w = _mm_set1_pd(g);
-  for (int k = 0; k < 12; k += 2)
-    _mm_storeu_pd(sum + k, _mm_add_pd(_mm_loadu_pd(sum + k), _mm_mul_pd(w, _mm_loadu_pd(terms + k))));
-#else
-  for (int k = 0; k < 12; ++k)
-    sum[k] += g * terms[k];
-#endif
-}
-}  // namespace
-
 RadiusEvaluation evaluateRadius(const CandidatePlanes& planes, double r, double L, ErrorForm form)
 {
   RadiusEvaluation ev;
   ev.radius = r;
   const double R = 2.0 * r, inv_R = 1.0 / R;
   // The planes by the kernel's piece they fall in (collected without a branch per plane: which
-  // piece is as good as random, and mispredicted branches cost more than the sums), then each
-  // piece summed in plane order. Distances are >= 0.
+  // piece is as good as random, and mispredicted branches cost more than the sums), then summed
+  // in plane order, the inner piece first (detail::weightedPlaneSum). Distances are >= 0.
   const std::size_t m = planes.size();
   thread_local std::vector<std::uint32_t> inner, outer;
-  inner.resize(m + 2);
+  inner.resize(m + 2);  // then the outer ones appended after the inner
   outer.resize(m + 2);
   std::size_t n_inner = 0, n_outer = 0;
   const double* dist = planes.distance.data();
@@ -115,17 +101,18 @@ RadiusEvaluation evaluateRadius(const CandidatePlanes& planes, double r, double 
     n_outer += (t > 0.5) & (t <= 1.0) ? 1 : 0;
   }
 #endif
-  double sum[12] = {};
+  // The weights, then the weighted sums over both pieces (inner planes first, then outer).
+  thread_local std::vector<double> g;
+  g.resize(n_inner + n_outer);
   for (std::size_t s = 0; s < n_inner; ++s)
-  {
-    const std::uint32_t j = inner[s];
-    addWeighted(sum, planes.terms[j].t, kernelInner(dist[j] * inv_R));
-  }
+    g[s] = kernelInner(dist[inner[s]] * inv_R);
   for (std::size_t s = 0; s < n_outer; ++s)
   {
-    const std::uint32_t j = outer[s];
-    addWeighted(sum, planes.terms[j].t, kernelOuter(dist[j] * inv_R));
+    g[n_inner + s] = kernelOuter(dist[outer[s]] * inv_R);
+    inner[n_inner + s] = outer[s];
   }
+  double sum[12];
+  detail::weightedPlaneSum(planes.terms.data(), inner.data(), g.data(), n_inner + n_outer, sum);
   Quadric q;
   q.A << sum[0], sum[1], sum[2], sum[1], sum[3], sum[4], sum[2], sum[4], sum[5];
   q.b << sum[6], sum[7], sum[8];

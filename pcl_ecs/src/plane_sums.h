@@ -1,0 +1,32 @@
+// plane_sums.h — the weighted sum of tangent-plane terms that every E(r) evaluation ends in
+// (eq. 13), private to the library. One portable version (SSE2 on x86-64) and one that uses AVX2
+// where the CPU has it, chosen at run time; both do the same operations in the same order
+// (separate multiplies and adds, never fused), so the output is the same bits on any x86-64.
+#pragma once
+
+#include <pcl_ecs/stages/radius_solver.h>
+
+#include <cstddef>
+#include <cstdint>
+
+namespace pcl_ecs
+{
+namespace detail
+{
+
+/** \brief sum[k] = Σ_s g[s] × terms[idx[s]].t[k], k < 12. The planes go alternately into two
+ * running sums (even s, odd s), added at the end: two independent chains of additions, so one
+ * plane's sums do not wait on the previous plane's. Uses AVX2 when the CPU has it. */
+void weightedPlaneSum(const CandidatePlanes::Terms* terms, const std::uint32_t* idx, const double* g,
+                      std::size_t count, double* sum);
+
+/** \brief The same sum without AVX2 (what weightedPlaneSum falls back to). */
+void weightedPlaneSumPortable(const CandidatePlanes::Terms* terms, const std::uint32_t* idx,
+                              const double* g, std::size_t count, double* sum);
+
+/** \brief The AVX2 version; false (sum untouched) when this CPU or build has no AVX2 path. */
+bool weightedPlaneSumWide(const CandidatePlanes::Terms* terms, const std::uint32_t* idx,
+                          const double* g, std::size_t count, double* sum);
+
+}  // namespace detail
+}  // namespace pcl_ecs
