@@ -13,6 +13,10 @@
 #include <cstdint>
 #include <limits>
 
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
+
 namespace pcl_ecs
 {
 
@@ -26,9 +30,10 @@ class RadiusQuerySource : public CandidateSource
 public:
   RadiusQuerySource(const pcl::search::Search<pcl::PointXYZ>& search,
                     const std::vector<std::uint8_t>& is_feature, const pcl::PointXYZ& centre,
-                    double max_radius, double first_radius, pcl::Indices& found, std::vector<float>& d2)
+                    double max_radius, double first_radius, pcl::Indices& found, std::vector<float>& d2,
+                    std::vector<double>& distance)
     : search_(search), is_feature_(is_feature), centre_(centre), max_radius_(max_radius),
-      next_radius_(first_radius), found_(found), d2_(d2)
+      next_radius_(first_radius), found_(found), d2_(d2), distance_(distance)
   {
   }
 
@@ -43,9 +48,32 @@ public:
     const std::size_t before = candidates.size();
     // A point is within a query when its squared distance, as the search computes it in float,
     // is <= the float square of the radius: the points past held_r2_ are exactly the new ones.
-    for (std::size_t i = 0; i < found_.size(); ++i)
-      if (d2_[i] > held_r2_ && !is_feature_[static_cast<std::size_t>(found_[i])])
-        candidates.push_back({std::sqrt(static_cast<double>(d2_[i])), found_[i]});
+    // Distances first (a loop the compiler vectorises), then the new non-feature points appended
+    // without a branch per point (in a grown query, old and new points alternate unpredictably).
+    const std::size_t found = found_.size();
+    distance_.resize(found + 1);
+    double* dist = distance_.data();
+    const float* d2 = d2_.data();
+    std::size_t i = 0;
+#ifdef __SSE2__
+    for (; i + 1 < found; i += 2)  // correctly rounded, as std::sqrt: the same bits
+    {
+      const __m128d pair = _mm_cvtps_pd(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(d2 + i))));
+      _mm_storeu_pd(dist + i, _mm_sqrt_pd(pair));
+    }
+#endif
+    for (; i < found; ++i)
+      dist[i] = std::sqrt(static_cast<double>(d2[i]));
+    candidates.resize(before + found);
+    BallCandidate* out = candidates.data() + before;
+    std::size_t added = 0;
+    for (std::size_t i = 0; i < found; ++i)
+    {
+      const int index = found_[i];
+      out[added] = {dist[i], index};
+      added += (d2[i] > held_r2_) & (is_feature_[static_cast<std::size_t>(index)] == 0) ? 1 : 0;
+    }
+    candidates.resize(before + added);
     held_r2_ = static_cast<float>(radius * radius);
     // Anything at or below the radius asked for is complete; tell the solver so.
     queried_ = radius >= max_radius_ ? std::numeric_limits<double>::infinity() : radius;
@@ -67,6 +95,7 @@ private:
   float held_r2_ = -1.0f;
   pcl::Indices& found_;
   std::vector<float>& d2_;
+  std::vector<double>& distance_;
 };
 }  // namespace
 
@@ -86,6 +115,7 @@ struct Scratch
   std::vector<BallCandidate> candidates;
   pcl::Indices found;  // radius query results, reused
   std::vector<float> d2;
+  std::vector<double> found_distance;  // sqrt(d2)
   std::vector<Eigen::Vector3d> offsets;
   std::vector<double> distances;  // |offset|, as the radius query measured it
   std::vector<int> members;
@@ -113,7 +143,8 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
   const QuadricSamples samples{in.cloud, in.normals, in.weights};
   const double class_scale = toleranceClassScale(ball.tolerance, error_threshold);
   const double guess = std::max(w.typical_radius * class_scale, in.density[cs]);
-  RadiusQuerySource source(in.search, in.is_feature, in.cloud[c], 2.0 * cap, 2.0 * guess, w.found, w.d2);
+  RadiusQuerySource source(in.search, in.is_feature, in.cloud[c], 2.0 * cap, 2.0 * guess, w.found, w.d2,
+                           w.found_distance);
   w.candidates.clear();
   const RadiusSolution sol = solveRadius(samples, centre, in.density[cs], cap, guess,
                                          ball.tolerance, in.bbox_diagonal, params.error_form,
