@@ -3,6 +3,7 @@
 #include <pcl_ecs/search/nanoflann_search.h>
 #include <pcl_ecs/spatial_order.h>
 
+#include "simd.h"  // private: switch the AVX2 loops off and on
 #include "synthetic_shapes.h"
 
 #include <algorithm>
@@ -187,10 +188,15 @@ TEST(Neighborhood, ExactInHilbertOrderWhereTheDensityJumps)
   std::vector<std::vector<std::pair<float, int>>> expected(cloud->size());
   for (std::size_t i = 0; i < cloud->size(); ++i)
     expected[i] = bruteForceNearest(*cloud, i, k);
-  for (int threads : {1, 2})
+  // Both builds of the inner loops (the AVX2 one runs only where the CPU has it).
+  for (const int run : {0, 1, 2, 3})
   {
+    const bool avx2 = run >= 2;
+    const int threads = 1 + run % 2;
+    pcl_ecs::detail::allowAvx2(avx2);
     pcl_ecs::NeighborhoodTable table;
     ASSERT_EQ(pcl_ecs::computeNeighborhoods(*cloud, boxes, k, threads, table), pcl_ecs::Status::Ok);
+    pcl_ecs::detail::allowAvx2(true);
     std::size_t wrong = 0;
     for (std::size_t i = 0; i < cloud->size(); ++i)
     {
@@ -202,6 +208,6 @@ TEST(Neighborhood, ExactInHilbertOrderWhereTheDensityJumps)
                      ? 1
                      : 0;
     }
-    EXPECT_EQ(wrong, 0u) << threads << " threads";
+    EXPECT_EQ(wrong, 0u) << threads << " threads, AVX2 " << (avx2 && pcl_ecs::detail::useAvx2());
   }
 }

@@ -2,6 +2,7 @@
 
 #include <pcl_ecs/stages/density_weights.h>
 
+#include "simd.h"  // private: switch the AVX2 loops off and on
 #include "synthetic_shapes.h"
 #include "test_support.h"
 
@@ -128,4 +129,24 @@ TEST(RadiusSolver, NormalizedErrorIsScaleFree)
   const auto ea = pcl_ecs::evaluateRadius(a.samples(), ca, sa.all, 0.1, 3.0, pcl_ecs::ErrorForm::Normalized);
   const auto eb = pcl_ecs::evaluateRadius(b.samples(), cb, sb.all, 0.1 * s, 3.0 * s, pcl_ecs::ErrorForm::Normalized);
   EXPECT_NEAR(eb.error, ea.error, 1e-4 * ea.error);
+}
+
+TEST(RadiusSolver, PortableAndAvx2SumsGiveTheSameBits)
+{
+  // E(r) ends in a weighted sum that has an AVX2 version (used where the CPU has it) and a
+  // portable one: the same operations in the same order, so the same error and point, bit for bit.
+  Fixture f(fibonacciSphere(20000, 1.0));
+  const Eigen::Vector3d centre = (*f.cloud)[777].getVector3fMap().cast<double>();
+  AllPoints src(*f.cloud, centre);
+  for (double r : {0.01, 0.03, 0.07, 0.2})
+  {
+    pcl_ecs::detail::allowAvx2(false);
+    const auto portable = pcl_ecs::evaluateRadius(f.samples(), centre, src.all, r, 3.0, pcl_ecs::ErrorForm::Normalized);
+    pcl_ecs::detail::allowAvx2(true);
+    const auto wide = pcl_ecs::evaluateRadius(f.samples(), centre, src.all, r, 3.0, pcl_ecs::ErrorForm::Normalized);
+    EXPECT_GT(portable.weight_sum, 0.0);
+    EXPECT_EQ(portable.error, wide.error) << "r " << r;
+    EXPECT_EQ(portable.weight_sum, wide.weight_sum) << "r " << r;
+    EXPECT_EQ(portable.minimum.x, wide.minimum.x) << "r " << r;
+  }
 }

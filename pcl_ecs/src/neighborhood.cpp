@@ -1,6 +1,7 @@
 #include <pcl_ecs/neighborhood.h>
 
 #include "pair_key.h"
+#include "simd.h"
 
 #include <algorithm>
 #include <array>
@@ -47,6 +48,7 @@ struct Worker
   std::vector<int> rank_id;
   std::vector<float> kth;  // K-th distances of the current block
   float margin = 0.f;  // recent K-th neighbour distance: how far around a block to look
+  bool wide = detail::useAvx2();  // the AVX2 versions of the loops (the same results)
 };
 
 /// The K nearest of point i (returned: the K-th distance) by one query of `search` per attempt.
@@ -153,8 +155,10 @@ constexpr std::size_t kRankMax = 32;
 /// The k smallest (distance, index) pairs of c candidates as sorted keys, c >= k, indices
 /// distinct, distances finite and >= 0; `d` and `id` have room for c rounded up to a multiple of
 /// 4. Each candidate's place is the number of candidates that order before it (a smaller distance,
-/// or the same and a smaller index), counted four candidates per instruction without a branch.
-void smallestByRank(float* d, int* id, std::size_t c, std::size_t k, std::uint64_t* keys)
+/// or the same and a smaller index), counted without a branch (the loop vectorises: compares and
+/// a masked count).
+PCL_ECS_ALWAYS_INLINE void smallestByRankBody(float* d, int* id, std::size_t c, std::size_t k,
+                                               std::uint64_t* keys)
 {
   const std::size_t padded = (c + 3) & ~std::size_t{3};
   for (std::size_t b = c; b < padded; ++b)
@@ -164,26 +168,73 @@ void smallestByRank(float* d, int* id, std::size_t c, std::size_t k, std::uint64
   }
   for (std::size_t a = 0; a < c; ++a)
   {
-    std::size_t before = 0;
-#ifdef __SSE2__
-    static constexpr std::uint8_t kOnes[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
-    const __m128 x = _mm_set1_ps(d[a]);
-    const __m128i xi = _mm_set1_epi32(id[a]);
-    for (std::size_t b = 0; b < padded; b += 4)
-    {
-      const __m128 y = _mm_loadu_ps(d + b);
-      const __m128i yi = _mm_loadu_si128(reinterpret_cast<const __m128i*>(id + b));
-      const __m128 tie_first =
-          _mm_and_ps(_mm_cmpeq_ps(y, x), _mm_castsi128_ps(_mm_cmplt_epi32(yi, xi)));
-      before += kOnes[_mm_movemask_ps(_mm_or_ps(_mm_cmplt_ps(y, x), tie_first))];
-    }
-#else
-    for (std::size_t b = 0; b < c; ++b)
-      before += (d[b] < d[a] || (d[b] == d[a] && id[b] < id[a])) ? 1 : 0;
-#endif
-    if (before < k)
+    const float x = d[a];
+    const int xi = id[a];
+    int before = 0;
+    for (std::size_t b = 0; b < padded; ++b)
+      before += (d[b] < x) | ((d[b] == x) & (id[b] < xi));
+    if (static_cast<std::size_t>(before) < k)
       keys[before] = pairKey(d[a], id[a]);
   }
+}
+
+/// Squared distances (float, as the search computes them) from q to the m candidates.
+PCL_ECS_ALWAYS_INLINE void squaredDistancesBody(const pcl::PointXYZ& q, const float* cx,
+                                                 const float* cy, const float* cz, std::size_t m,
+                                                 float* d2)
+{
+  for (std::size_t j = 0; j < m; ++j)
+  {
+    const float dx = q.x - cx[j], dy = q.y - cy[j], dz = q.z - cz[j];
+    d2[j] = dx * dx + dy * dy + dz * dz;
+  }
+}
+
+void smallestByRankPortable(float* d, int* id, std::size_t c, std::size_t k, std::uint64_t* keys)
+{
+  smallestByRankBody(d, id, c, k, keys);
+}
+
+void squaredDistancesPortable(const pcl::PointXYZ& q, const float* cx, const float* cy,
+                              const float* cz, std::size_t m, float* d2)
+{
+  squaredDistancesBody(q, cx, cy, cz, m, d2);
+}
+
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+PCL_ECS_AVX2_TARGET void smallestByRankAvx2(float* d, int* id, std::size_t c, std::size_t k,
+                                            std::uint64_t* keys)
+{
+  smallestByRankBody(d, id, c, k, keys);
+}
+
+PCL_ECS_AVX2_TARGET void squaredDistancesAvx2(const pcl::PointXYZ& q, const float* cx,
+                                              const float* cy, const float* cz, std::size_t m,
+                                              float* d2)
+{
+  squaredDistancesBody(q, cx, cy, cz, m, d2);
+}
+#endif
+
+void smallestByRank(float* d, int* id, std::size_t c, std::size_t k, std::uint64_t* keys, bool wide)
+{
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+  if (wide)
+    return smallestByRankAvx2(d, id, c, k, keys);
+#endif
+  (void)wide;
+  smallestByRankPortable(d, id, c, k, keys);
+}
+
+void squaredDistances(const pcl::PointXYZ& q, const float* cx, const float* cy, const float* cz,
+                      std::size_t m, float* d2, bool wide)
+{
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+  if (wide)
+    return squaredDistancesAvx2(q, cx, cy, cz, m, d2);
+#endif
+  (void)wide;
+  squaredDistancesPortable(q, cx, cy, cz, m, d2);
 }
 
 /// The k smallest (squared distance, index) keys of point i, q itself left out, into `keys` (sorted)
@@ -302,11 +353,7 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
     std::uint64_t* keys = w.keys.data();
     std::size_t filled = 0;
     float* d2 = w.dist.data();
-    for (std::size_t j = 0; j < m; ++j)  // vectorises
-    {
-      const float dx = q.x - w.cx[j], dy = q.y - w.cy[j], dz = q.z - w.cz[j];
-      d2[j] = dx * dx + dy * dy + dz * dz;
-    }
+    squaredDistances(q, w.cx.data(), w.cy.data(), w.cz.data(), m, d2, w.wide);
     // Only candidates within a bound can be among the k nearest when at least k others are (q
     // itself is inside every bound): the previous point's k neighbours and that point itself lie
     // within its k-th distance plus the step between the two. Collected without branches, then
@@ -357,7 +404,7 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
         w.rank_id[c] = w.cid[j];
         c += w.cid[j] != i ? 1 : 0;
       }
-      smallestByRank(w.rank_d.data(), w.rank_id.data(), c, ku, keys);
+      smallestByRank(w.rank_d.data(), w.rank_id.data(), c, ku, keys, w.wide);
       filled = ku;
     }
     else if (inside < m)

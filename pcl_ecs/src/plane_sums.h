@@ -24,7 +24,8 @@ void weightedPlaneSum(const CandidatePlanes::Terms* terms, const std::uint32_t* 
 void weightedPlaneSumPortable(const CandidatePlanes::Terms* terms, const std::uint32_t* idx,
                               const double* g, std::size_t count, double* sum);
 
-/** \brief The AVX2 version; false (sum untouched) when this CPU or build has no AVX2 path. */
+/** \brief The AVX2 version; false (sum untouched) when it cannot run (no AVX2 on this CPU or in
+ * this build, or switched off by allowAvx2). */
 bool weightedPlaneSumWide(const CandidatePlanes::Terms* terms, const std::uint32_t* idx,
                           const double* g, std::size_t count, double* sum);
 

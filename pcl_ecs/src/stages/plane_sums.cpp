@@ -3,9 +3,10 @@
 #ifdef __SSE2__
 #include <emmintrin.h>
 #endif
-#if defined(__x86_64__) && defined(__GNUC__)
+#include "../simd.h"
+
+#ifdef PCL_ECS_HAVE_AVX2_PATH
 #include <immintrin.h>
-#define PCL_ECS_AVX2_PATH 1
 #endif
 
 namespace pcl_ecs
@@ -34,18 +35,16 @@ void weightedPlaneSumPortable(const CandidatePlanes::Terms* terms, const std::ui
     sum[k] = acc[0][k] + acc[1][k];
 }
 
-#ifdef PCL_ECS_AVX2_PATH
+#ifdef PCL_ECS_HAVE_AVX2_PATH
 namespace
 {
-// "avx2" without "fma": the compiler cannot fuse a multiply and an add (that would round once
-// instead of twice and change the bits).
-__attribute__((target("avx2"))) void weightedPlaneSumAvx2(const CandidatePlanes::Terms* terms,
+PCL_ECS_AVX2_TARGET void weightedPlaneSumAvx2(const CandidatePlanes::Terms* terms,
                                                           const std::uint32_t* idx, const double* g,
                                                           std::size_t count, double* sum)
 {
   __m256d e0 = _mm256_setzero_pd(), e1 = e0, e2 = e0, o0 = e0, o1 = e0, o2 = e0;
   auto add = [](__m256d& a0, __m256d& a1, __m256d& a2, const double* t, double weight)
-      __attribute__((target("avx2"))) {
+      PCL_ECS_AVX2_TARGET {
     const __m256d w = _mm256_set1_pd(weight);
     a0 = _mm256_add_pd(a0, _mm256_mul_pd(w, _mm256_loadu_pd(t)));
     a1 = _mm256_add_pd(a1, _mm256_mul_pd(w, _mm256_loadu_pd(t + 4)));
@@ -63,20 +62,14 @@ __attribute__((target("avx2"))) void weightedPlaneSumAvx2(const CandidatePlanes:
   _mm256_storeu_pd(sum + 4, _mm256_add_pd(e1, o1));
   _mm256_storeu_pd(sum + 8, _mm256_add_pd(e2, o2));
 }
-
-bool haveAvx2()
-{
-  static const bool have = __builtin_cpu_supports("avx2");
-  return have;
-}
 }  // namespace
 #endif
 
 bool weightedPlaneSumWide(const CandidatePlanes::Terms* terms, const std::uint32_t* idx,
                           const double* g, std::size_t count, double* sum)
 {
-#ifdef PCL_ECS_AVX2_PATH
-  if (haveAvx2())
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+  if (useAvx2())
   {
     weightedPlaneSumAvx2(terms, idx, g, count, sum);
     return true;
