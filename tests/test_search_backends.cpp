@@ -4,9 +4,11 @@
 #include <pcl_ecs/search/nanoflann_search.h>
 #include <pcl_ecs/spatial_order.h>
 
+#include "simd.h"  // private: switch the AVX2 loops off and on
 #include "synthetic_shapes.h"
 
 #include <algorithm>
+#include <cstring>
 
 #include <gtest/gtest.h>
 
@@ -74,6 +76,39 @@ TYPED_TEST(SearchBackend, KNearestAndRadiusMatchBruteForce)
       std::sort(want.begin(), want.end());
       EXPECT_EQ(got, want);
     }
+  }
+}
+
+TEST(BoxTreeSearch, RadiusScanGivesTheSameResultsWithAndWithoutAvx2)
+{
+  // A run's points are scanned by a portable loop or, where the CPU has AVX2, eight at a time:
+  // the same points, squared distances (bits) and order, and those of brute force. Queries of
+  // every size, so that runs are wholly, partly and not at all within reach; the cloud's size is
+  // no multiple of the run (a padded last run).
+  Rng rng(29);
+  auto cloud = std::make_shared<Cloud>();
+  for (int i = 0; i < 3001; ++i)
+    cloud->push_back(toPoint({rng.uniform(), rng.uniform(), 0.1 * rng.uniform()}));
+  pcl_ecs::BoxTreeSearch search;
+  search.setInputCloud(cloud);
+  for (int q = 0; q < 60; ++q)
+  {
+    const pcl::PointXYZ query = toPoint({rng.uniform(), rng.uniform(), 0.05});
+    const double radius = 0.01 * (q + 1);
+    pcl::Indices portable_i, wide_i;
+    std::vector<float> portable_d, wide_d;
+    pcl_ecs::detail::allowAvx2(false);
+    search.radiusSearch(query, radius, portable_i, portable_d);
+    pcl_ecs::detail::allowAvx2(true);
+    search.radiusSearch(query, radius, wide_i, wide_d);
+    EXPECT_EQ(portable_i, wide_i) << "query " << q;
+    ASSERT_EQ(portable_d.size(), wide_d.size());
+    EXPECT_EQ(0, std::memcmp(portable_d.data(), wide_d.data(), portable_d.size() * sizeof(float)));
+    const auto truth = bruteForce(*cloud, query, nullptr);
+    std::size_t inside = 0;
+    while (inside < truth.size() && truth[inside].first <= static_cast<float>(radius * radius))
+      ++inside;
+    EXPECT_EQ(portable_i.size(), inside) << "query " << q;
   }
 }
 

@@ -1,6 +1,7 @@
 #include <pcl_ecs/search/box_tree_search.h>
 
 #include "../pair_key.h"
+#include "../simd.h"
 
 #include <pcl/common/point_tests.h>
 
@@ -14,6 +15,9 @@
 #endif
 #ifdef __SSE__
 #include <xmmintrin.h>
+#endif
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+#include <immintrin.h>
 #endif
 
 namespace pcl_ecs
@@ -76,6 +80,89 @@ struct Visit
 // Depth-first stacks hold at most (kWide - 1) entries per level plus one; 16 levels of 8-wide
 // nodes over runs of 32 points reach past 2^50 points.
 constexpr int kStack = 16 * kWide;
+/// The points of one run (kRun coordinates from x, y, z; padding is NaN: never within reach) with
+/// squared distance <= r2 from (px, py, pz): their ids and squared distances, in run order, into
+/// out_i and out_d (room for kRun). Returns how many.
+int scanRunPortable(const float* x, const float* y, const float* z, const int* ids, float px,
+                    float py, float pz, float r2, int* out_i, float* out_d)
+{
+  float d2[BoxTreeSearch::kRun];
+  for (int j = 0; j < BoxTreeSearch::kRun; ++j)  // vectorises
+  {
+    const float dx = px - x[j], dy = py - y[j], dz = pz - z[j];
+    d2[j] = dx * dx + dy * dy + dz * dz;
+  }
+  // Gathered without a branch per point.
+  int kept = 0;
+  for (int j = 0; j < BoxTreeSearch::kRun; ++j)
+  {
+    out_i[kept] = ids[j];
+    out_d[kept] = d2[j];
+    kept += d2[j] <= r2 ? 1 : 0;
+  }
+  return kept;
+}
+
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+/// For each 8-bit mask: the lanes it selects, packed to the front, and how many there are.
+struct CompressTable
+{
+  std::int32_t lanes[256][8];
+  std::uint8_t count[256];
+};
+constexpr CompressTable makeCompressTable()
+{
+  CompressTable t{};
+  for (int mask = 0; mask < 256; ++mask)
+  {
+    int c = 0;
+    for (int l = 0; l < 8; ++l)
+      if (mask & (1 << l))
+        t.lanes[mask][c++] = l;
+    t.count[mask] = static_cast<std::uint8_t>(c);
+  }
+  return t;
+}
+alignas(32) constexpr CompressTable kCompress = makeCompressTable();
+
+/// The same as scanRunPortable, eight points per instruction: distances by the same operations
+/// in the same order (no fused multiply-add: the same bits), the points within reach packed to
+/// the front of each group of eight by one permutation (a group stores eight lanes at `kept`,
+/// at most its own start: within the kRun entries).
+PCL_ECS_AVX2_TARGET int scanRunAvx2(const float* x, const float* y, const float* z, const int* ids,
+                                    float px, float py, float pz, float r2, int* out_i, float* out_d)
+{
+  const __m256 qx = _mm256_set1_ps(px), qy = _mm256_set1_ps(py), qz = _mm256_set1_ps(pz);
+  const __m256 limit = _mm256_set1_ps(r2);
+  int kept = 0;
+  for (int j = 0; j < BoxTreeSearch::kRun; j += 8)
+  {
+    const __m256 dx = _mm256_sub_ps(qx, _mm256_loadu_ps(x + j));
+    const __m256 dy = _mm256_sub_ps(qy, _mm256_loadu_ps(y + j));
+    const __m256 dz = _mm256_sub_ps(qz, _mm256_loadu_ps(z + j));
+    const __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
+                                    _mm256_mul_ps(dz, dz));
+    const int mask = _mm256_movemask_ps(_mm256_cmp_ps(d2, limit, _CMP_LE_OQ));
+    const __m256i lanes = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(kCompress.lanes[mask]));
+    _mm256_storeu_ps(out_d + kept, _mm256_permutevar8x32_ps(d2, lanes));
+    const __m256i id = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ids + j));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(out_i + kept), _mm256_permutevar8x32_epi32(id, lanes));
+    kept += kCompress.count[mask];
+  }
+  return kept;
+}
+#endif
+
+int scanRun(bool wide, const float* x, const float* y, const float* z, const int* ids, float px,
+            float py, float pz, float r2, int* out_i, float* out_d)
+{
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+  if (wide)
+    return scanRunAvx2(x, y, z, ids, px, py, pz, r2, out_i, out_d);
+#endif
+  (void)wide;
+  return scanRunPortable(x, y, z, ids, px, py, pz, r2, out_i, out_d);
+}
 }  // namespace
 
 struct BoxTreeSearch::Impl
@@ -211,6 +298,7 @@ int BoxTreeSearch::radiusSearch(const pcl::PointXYZ& point, double radius, pcl::
     return 0;
   const float r2 = static_cast<float>(radius * radius);
   const float px = point.x, py = point.y, pz = point.z;
+  const bool wide = detail::useAvx2();
   Visit stack[kStack];
   int top = 0;
   stack[top++] = {static_cast<int>(t.levels.size()) - 1, 0, 0.f};
@@ -232,22 +320,9 @@ int BoxTreeSearch::radiusSearch(const pcl::PointXYZ& point, double radius, pcl::
       if (!(d[c] <= r2 && d[c] < kEmpty))
         continue;
       const std::size_t b = (static_cast<std::size_t>(v.node) * kWide + static_cast<std::size_t>(c)) * kRun;
-      float d2[kRun];
-      for (int j = 0; j < kRun; ++j)  // vectorises (padding is NaN: never <= r2)
-      {
-        const float dx = px - t.x[b + j], dy = py - t.y[b + j], dz = pz - t.z[b + j];
-        d2[j] = dx * dx + dy * dy + dz * dz;
-      }
-      // The points within reach, gathered without a branch per point, appended in one go.
       int in_i[kRun];
       float in_d[kRun];
-      int kept = 0;
-      for (int j = 0; j < kRun; ++j)
-      {
-        in_i[kept] = t.to_cloud[b + j];
-        in_d[kept] = d2[j];
-        kept += d2[j] <= r2 ? 1 : 0;
-      }
+      const int kept = scanRun(wide, &t.x[b], &t.y[b], &t.z[b], &t.to_cloud[b], px, py, pz, r2, in_i, in_d);
       k_indices.insert(k_indices.end(), in_i, in_i + kept);
       k_sqr_distances.insert(k_sqr_distances.end(), in_d, in_d + kept);
     }
