@@ -1,6 +1,8 @@
 #include <pcl_ecs/stages/paraboloid_curvature.h>
 #include <pcl_ecs/stages/tangent_frame.h>
 
+#include "../simd.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -137,10 +139,167 @@ bool normalEquations(const double (*a)[256], const double* z, int rows, double* 
   }
   return true;
 }
+
+/// Rows of a neighbourhood that the batched fit takes (K up to this; larger K fit one by one).
+constexpr int kBatchRows = 64;
+
+/// The tilted fit (eq. 8-12 with the slope terms) of W neighbourhoods at once, lane l being one
+/// point: the same operations for every lane (selects instead of branches), so the compiler runs
+/// the lanes side by side in vector registers, and one lane alone (W = 1) gives the same bits.
+/// The normal equations are summed row after row (each of their 20 sums one chain, in row order).
+/// rows: the points per lane (<= kBatchRows); p[k][a][l]: coordinate a of lane l's k-th point.
+/// Out: h[l] the mean curvature, solved[l] false when the normal equations are too ill-conditioned
+/// for the lane (its h is then meaningless: the caller fits it by QR).
+template <int W>
+PCL_ECS_ALWAYS_INLINE void tiltedFitLanes(int rows, const double (*centre)[W], const double (*normal)[W],
+                                          const double (*p)[3][W], double* h, bool* solved)
+{
+  // The local frame (u, v, n): u = n × (x or y axis, whichever is less parallel to n), normalised.
+  double u[3][W], v[3][W];
+  for (int l = 0; l < W; ++l)
+  {
+    const double n0 = normal[0][l], n1 = normal[1][l], n2 = normal[2][l];
+    const bool use_x = std::abs(n0) < 0.9;
+    const double u0 = use_x ? 0.0 : -n2, u1 = use_x ? n2 : 0.0, u2 = use_x ? -n1 : n0;
+    const double len = std::sqrt(u0 * u0 + u1 * u1 + u2 * u2);
+    u[0][l] = u0 / len;
+    u[1][l] = u1 / len;
+    u[2][l] = u2 / len;
+    v[0][l] = n1 * u[2][l] - n2 * u[1][l];
+    v[1][l] = n2 * u[0][l] - n0 * u[2][l];
+    v[2][l] = n0 * u[1][l] - n1 * u[0][l];
+  }
+  // Coordinates scaled by the neighbourhood size (the largest distance from the centre).
+  double inv_scale[W], scale[W];
+  for (int l = 0; l < W; ++l)
+    scale[l] = 0.0;
+  for (int k = 0; k < rows; ++k)
+    for (int l = 0; l < W; ++l)
+    {
+      const double q0 = p[k][0][l] - centre[0][l], q1 = p[k][1][l] - centre[1][l], q2 = p[k][2][l] - centre[2][l];
+      scale[l] = std::max(scale[l], q0 * q0 + q1 * q1 + q2 * q2);
+    }
+  for (int l = 0; l < W; ++l)
+  {
+    scale[l] = std::sqrt(scale[l]);
+    inv_scale[l] = scale[l] > 0.0 ? 1.0 / scale[l] : 0.0;
+  }
+  // AᵀA (lower triangle, row by row: m[0] = (0,0), m[1] = (1,0), m[2] = (1,1), ...) and Aᵀz over
+  // the rows (x², xy, y², x, y | z); a row at the centre itself (x = y = 0) adds nothing and is
+  // not counted.
+  double m[15][W], r[5][W];
+  int used[W];
+  for (int l = 0; l < W; ++l)
+  {
+    for (int e = 0; e < 15; ++e)
+      m[e][l] = 0.0;
+    for (int e = 0; e < 5; ++e)
+      r[e][l] = 0.0;
+    used[l] = 0;
+  }
+  for (int k = 0; k < rows; ++k)
+  {
+    double a[5][W], z[W];  // the row of each lane (l innermost everywhere: the lanes vectorise)
+    for (int l = 0; l < W; ++l)
+    {
+      const double q0 = (p[k][0][l] - centre[0][l]) * inv_scale[l];
+      const double q1 = (p[k][1][l] - centre[1][l]) * inv_scale[l];
+      const double q2 = (p[k][2][l] - centre[2][l]) * inv_scale[l];
+      double x = q0 * u[0][l] + q1 * u[1][l] + q2 * u[2][l];
+      double y = q0 * v[0][l] + q1 * v[1][l] + q2 * v[2][l];
+      const double zz = q0 * normal[0][l] + q1 * normal[1][l] + q2 * normal[2][l];
+      const bool keep = x * x + y * y > 0.0;
+      x = keep ? x : 0.0;
+      y = keep ? y : 0.0;
+      z[l] = keep ? zz : 0.0;
+      used[l] += keep ? 1 : 0;
+      a[0][l] = x * x;
+      a[1][l] = x * y;
+      a[2][l] = y * y;
+      a[3][l] = x;
+      a[4][l] = y;
+    }
+    int e = 0;
+    for (int i = 0; i < 5; ++i)
+    {
+      for (int j = 0; j <= i; ++j, ++e)
+        for (int l = 0; l < W; ++l)
+          m[e][l] += a[i][l] * a[j][l];
+      for (int l = 0; l < W; ++l)
+        r[i][l] += a[i][l] * z[l];
+    }
+  }
+  // Cholesky AᵀA = L Lᵀ, each pivot at least 1e-10 of the largest diagonal entry (as
+  // normalEquations), then L y = Aᵀz, Lᵀ x = y, and H of the fitted graph (lanes innermost).
+  double c[5][5][W], y[5][W], x[5][W];
+  bool ok[W];
+  {
+    int e = 0;
+    for (int i = 0; i < 5; ++i)
+      for (int j = 0; j <= i; ++j, ++e)
+        for (int l = 0; l < W; ++l)
+          c[i][j][l] = m[e][l];
+  }
+  for (int l = 0; l < W; ++l)
+  {
+    double largest = 0.0;
+    for (int i = 0; i < 5; ++i)
+      largest = std::max(largest, c[i][i][l]);
+    ok[l] = largest > 0.0 && used[l] >= 5 && scale[l] > 0.0;
+    m[0][l] = largest;  // (m is spent: keep the largest diagonal entry there)
+  }
+  for (int j = 0; j < 5; ++j)
+  {
+    for (int l = 0; l < W; ++l)
+    {
+      double d = c[j][j][l];
+      for (int t = 0; t < j; ++t)
+        d -= c[j][t][l] * c[j][t][l];
+      ok[l] = ok[l] && d >= 1e-10 * m[0][l];
+      c[j][j][l] = std::sqrt(ok[l] ? d : 1.0);
+    }
+    for (int i = j + 1; i < 5; ++i)
+      for (int l = 0; l < W; ++l)
+      {
+        double sum = c[i][j][l];
+        for (int t = 0; t < j; ++t)
+          sum -= c[i][t][l] * c[j][t][l];
+        c[i][j][l] = sum / c[j][j][l];
+      }
+  }
+  for (int i = 0; i < 5; ++i)
+    for (int l = 0; l < W; ++l)
+    {
+      double sum = r[i][l];
+      for (int t = 0; t < i; ++t)
+        sum -= c[i][t][l] * y[t][l];
+      y[i][l] = sum / c[i][i][l];
+    }
+  for (int i = 4; i >= 0; --i)
+    for (int l = 0; l < W; ++l)
+    {
+      double sum = y[i][l];
+      for (int t = i + 1; t < 5; ++t)
+        sum -= c[t][i][l] * x[t][l];
+      x[i][l] = sum / c[i][i][l];
+    }
+  for (int l = 0; l < W; ++l)
+  {
+    const double d = x[3][l], ee = x[4][l];
+    const double g = 1.0 + d * d + ee * ee;
+    h[l] = ((1.0 + ee * ee) * x[0][l] - d * ee * x[1][l] + (1.0 + d * d) * x[2][l]) /
+           (g * std::sqrt(g) * scale[l]);
+    solved[l] = ok[l];
+  }
+}
 }  // namespace
 
-double paraboloidMeanCurvature(const Eigen::Vector3d& centre, const Eigen::Vector3d& normal,
-                               const std::vector<Eigen::Vector3d>& points, ParaboloidFit fit)
+namespace
+{
+/// The fit from rows compacted one by one: the normal equations when `try_normal_equations` (the
+/// path for more than kBatchRows points), else straight to the QR (a fit the lanes could not solve).
+double fitByRows(const Eigen::Vector3d& centre, const Eigen::Vector3d& normal,
+                 const std::vector<Eigen::Vector3d>& points, ParaboloidFit fit, bool try_normal_equations)
 {
   Eigen::Vector3d u, v;
   tangentFrame(normal, u, v);
@@ -177,7 +336,8 @@ double paraboloidMeanCurvature(const Eigen::Vector3d& centre, const Eigen::Vecto
   double coef[5];
   // Eq. 9, well conditioned: the normal equations (the column count fixed at compile time, so the
   // small loops unroll); otherwise the QR, stable, with a rank test.
-  const bool solved = cols == 3 ? normalEquations<3>(a, z, rows, coef) : normalEquations<5>(a, z, rows, coef);
+  const bool solved = try_normal_equations &&
+                      (cols == 3 ? normalEquations<3>(a, z, rows, coef) : normalEquations<5>(a, z, rows, coef));
   if (!solved &&
       !householderLeastSquares(a, z, rows, cols, coef))
     return 0.0;
@@ -191,6 +351,114 @@ double paraboloidMeanCurvature(const Eigen::Vector3d& centre, const Eigen::Vecto
   return ((1.0 + e * e) * ca - d * e * cb + (1.0 + d * d) * cc) / (g * std::sqrt(g) * scale);
 }
 
+/// Lane l of a batch from the point's centre, normal and neighbours.
+PCL_ECS_ALWAYS_INLINE void fillLane(int l, int rows, const pcl::PointXYZ& c, const Eigen::Vector3f& nrm,
+                                    const int* nb, const LocalCloud& cloud, double (*centre)[4],
+                                    double (*normal)[4], double (*p)[3][4])
+{
+  centre[0][l] = c.x;
+  centre[1][l] = c.y;
+  centre[2][l] = c.z;
+  normal[0][l] = nrm.x();
+  normal[1][l] = nrm.y();
+  normal[2][l] = nrm.z();
+  for (int k = 0; k < rows; ++k)
+  {
+    const pcl::PointXYZ& q = cloud[nb[k]];
+    p[k][0][l] = q.x;
+    p[k][1][l] = q.y;
+    p[k][2][l] = q.z;
+  }
+}
+
+/// Eq. 11 for the non-feature points of [begin, end), four at a time (the tilted fit, K <=
+/// kBatchRows); a point whose normal equations are too ill-conditioned is fitted alone by QR.
+PCL_ECS_ALWAYS_INLINE void curvatureRangeBody(const LocalCloud& cloud, const NormalList& normals,
+                                              const NeighborhoodTable& table,
+                                              const std::vector<std::uint8_t>& is_feature,
+                                              std::ptrdiff_t begin, std::ptrdiff_t end,
+                                              std::vector<double>& curvature)
+{
+  constexpr int W = 4;
+  const int rows = table.k;
+  double centre[3][W], normal[3][W], p[kBatchRows][3][W], h[W];
+  bool solved[W];
+  std::size_t lane_point[W];
+  int filled = 0;
+  std::vector<Eigen::Vector3d> hood;
+  for (std::ptrdiff_t ii = begin; ii < end || filled > 0; ++ii)
+  {
+    if (ii < end)
+    {
+      const auto i = static_cast<std::size_t>(ii);
+      if (is_feature[i])
+        continue;
+      fillLane(filled, rows, cloud[i], normals[i], table.neighbors(i), cloud, centre, normal, p);
+      lane_point[filled++] = i;
+      if (filled < W)
+        continue;
+    }
+    for (int l = filled; l < W; ++l)  // a last, partial batch: the spare lanes repeat lane 0
+      fillLane(l, rows, cloud[lane_point[0]], normals[lane_point[0]], table.neighbors(lane_point[0]),
+               cloud, centre, normal, p);
+    tiltedFitLanes<W>(rows, centre, normal, p, h, solved);
+    for (int l = 0; l < filled; ++l)
+    {
+      const std::size_t i = lane_point[l];
+      if (solved[l])
+      {
+        curvature[i] = h[l];
+        continue;
+      }
+      const int* nb = table.neighbors(i);
+      hood.resize(static_cast<std::size_t>(rows));
+      for (int k = 0; k < rows; ++k)
+        hood[static_cast<std::size_t>(k)] = cloud[nb[k]].getVector3fMap().cast<double>();
+      curvature[i] = fitByRows(cloud[static_cast<std::ptrdiff_t>(i)].getVector3fMap().cast<double>(),
+                               normals[i].cast<double>(), hood, ParaboloidFit::Tilted, false);
+    }
+    filled = 0;
+  }
+}
+
+void curvatureRangePortable(const LocalCloud& cloud, const NormalList& normals, const NeighborhoodTable& table,
+                            const std::vector<std::uint8_t>& is_feature, std::ptrdiff_t begin,
+                            std::ptrdiff_t end, std::vector<double>& curvature)
+{
+  curvatureRangeBody(cloud, normals, table, is_feature, begin, end, curvature);
+}
+
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+PCL_ECS_AVX2_TARGET void curvatureRangeAvx2(const LocalCloud& cloud, const NormalList& normals,
+                                            const NeighborhoodTable& table,
+                                            const std::vector<std::uint8_t>& is_feature,
+                                            std::ptrdiff_t begin, std::ptrdiff_t end,
+                                            std::vector<double>& curvature)
+{
+  curvatureRangeBody(cloud, normals, table, is_feature, begin, end, curvature);
+}
+#endif
+}  // namespace
+
+double paraboloidMeanCurvature(const Eigen::Vector3d& centre, const Eigen::Vector3d& normal,
+                               const std::vector<Eigen::Vector3d>& points, ParaboloidFit fit)
+{
+  if (fit != ParaboloidFit::Tilted || points.size() > static_cast<std::size_t>(kBatchRows))
+    return fitByRows(centre, normal, points, fit, true);
+  // One lane of the batched fit: the same bits as computeMeanCurvature gives this point.
+  const int rows = static_cast<int>(points.size());
+  double c[3][1] = {{centre.x()}, {centre.y()}, {centre.z()}};
+  double n[3][1] = {{normal.x()}, {normal.y()}, {normal.z()}};
+  double p[kBatchRows][3][1];
+  for (int k = 0; k < rows; ++k)
+    for (int a = 0; a < 3; ++a)
+      p[k][a][0] = points[static_cast<std::size_t>(k)](a);
+  double h = 0.0;
+  bool solved = false;
+  tiltedFitLanes<1>(rows, c, n, p, &h, &solved);
+  return solved ? h : fitByRows(centre, normal, points, fit, false);
+}
+
 void computeMeanCurvature(const LocalCloud& cloud, const NormalList& normals,
                           const NeighborhoodTable& table,
                           const std::vector<std::uint8_t>& is_feature, int threads,
@@ -198,22 +466,43 @@ void computeMeanCurvature(const LocalCloud& cloud, const NormalList& normals,
 {
   const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(table.size());
   curvature.assign(static_cast<std::size_t>(n), 0.0);
+  const bool batched = fit == ParaboloidFit::Tilted && table.k <= kBatchRows;
+  const bool wide = detail::useAvx2();
+  constexpr std::ptrdiff_t kChunk = 2048;
+  const std::ptrdiff_t chunks = (n + kChunk - 1) / kChunk;
 #pragma omp parallel num_threads(threads)
   {
     std::vector<Eigen::Vector3d> hood(static_cast<std::size_t>(table.k));
-#pragma omp for schedule(dynamic, 2048)
-    for (std::ptrdiff_t i = 0; i < n; ++i)
+#pragma omp for schedule(dynamic, 1)
+    for (std::ptrdiff_t chunk = 0; chunk < chunks; ++chunk)
     {
-      if (is_feature[static_cast<std::size_t>(i)])
+      const std::ptrdiff_t begin = chunk * kChunk, end = std::min(n, begin + kChunk);
+      if (batched)
+      {
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+        if (wide)
+        {
+          curvatureRangeAvx2(cloud, normals, table, is_feature, begin, end, curvature);
+          continue;
+        }
+#endif
+        curvatureRangePortable(cloud, normals, table, is_feature, begin, end, curvature);
         continue;
-      const int* nb = table.neighbors(static_cast<std::size_t>(i));
-      for (int j = 0; j < table.k; ++j)
-        hood[static_cast<std::size_t>(j)] = cloud[nb[j]].getVector3fMap().cast<double>();
-      curvature[static_cast<std::size_t>(i)] =
-          paraboloidMeanCurvature(cloud[i].getVector3fMap().cast<double>(),
-                                  normals[static_cast<std::size_t>(i)].cast<double>(), hood, fit);
+      }
+      for (std::ptrdiff_t i = begin; i < end; ++i)
+      {
+        if (is_feature[static_cast<std::size_t>(i)])
+          continue;
+        const int* nb = table.neighbors(static_cast<std::size_t>(i));
+        for (int j = 0; j < table.k; ++j)
+          hood[static_cast<std::size_t>(j)] = cloud[nb[j]].getVector3fMap().cast<double>();
+        curvature[static_cast<std::size_t>(i)] =
+            paraboloidMeanCurvature(cloud[i].getVector3fMap().cast<double>(),
+                                    normals[static_cast<std::size_t>(i)].cast<double>(), hood, fit);
+      }
     }
   }
+  (void)wide;
 }
 
 double meanAbsCurvature(const std::vector<double>& curvature,
