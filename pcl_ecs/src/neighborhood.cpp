@@ -13,6 +13,9 @@
 #ifdef __SSE2__
 #include <emmintrin.h>
 #endif
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+#include <immintrin.h>
+#endif
 
 namespace pcl_ecs
 {
@@ -105,7 +108,7 @@ inline void offerKey(std::uint64_t key, std::size_t k, std::uint64_t* keys, std:
 /// The positions j < m with d[j] <= bound, in order, into sel; returns how many. d and sel have
 /// room for m rounded up to a multiple of 4. Four candidates per instruction, no branch: each
 /// quadruple's mask picks a precomputed packing of its positions.
-std::size_t selectWithin(const float* d, std::size_t m, float bound, std::uint32_t* sel)
+std::size_t selectWithinPortable(const float* d, std::size_t m, float bound, std::uint32_t* sel)
 {
   const std::size_t m4 = (m + 3) & ~std::size_t{3};
   std::size_t c = 0;
@@ -146,6 +149,41 @@ std::size_t selectWithin(const float* d, std::size_t m, float bound, std::uint32
   while (c > 0 && sel[c - 1] >= m)
     --c;  // padding past m (only an infinite bound reaches it)
   return c;
+}
+
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+/// selectWithin eight candidates per instruction: d and sel have room for m rounded up to a
+/// multiple of 8 (d padded with +inf).
+PCL_ECS_AVX2_TARGET std::size_t selectWithinAvx2(const float* d, std::size_t m, float bound,
+                                                 std::uint32_t* sel)
+{
+  const std::size_t m8 = (m + 7) & ~std::size_t{7};
+  const __m256 limit = _mm256_set1_ps(bound);
+  std::size_t c = 0;
+  for (std::size_t j = 0; j < m8; j += 8)
+  {
+    const int mask = _mm256_movemask_ps(_mm256_cmp_ps(_mm256_loadu_ps(d + j), limit, _CMP_LE_OQ));
+    const __m256i lanes = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(detail::kCompress8.lanes[mask]));
+    const __m256i positions = _mm256_add_epi32(lanes, _mm256_set1_epi32(static_cast<int>(j)));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(sel + c), positions);  // c + 8 <= m8: in room
+    c += detail::kCompress8.count[mask];
+  }
+  while (c > 0 && sel[c - 1] >= m)
+    --c;  // padding past m (only an infinite bound reaches it)
+  return c;
+}
+#endif
+
+/// The positions j < m with d[j] <= bound, in order, into sel; returns how many. d and sel have
+/// room for m rounded up to a multiple of 8, d padded with +inf.
+std::size_t selectWithin(const float* d, std::size_t m, float bound, std::uint32_t* sel, bool wide)
+{
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+  if (wide)
+    return selectWithinAvx2(d, m, bound, sel);
+#endif
+  (void)wide;
+  return selectWithinPortable(d, m, bound, sel);
 }
 
 /// Candidates within a bound ranked by counting (below) when at most this many: the count is
@@ -324,9 +362,9 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
   w.cy.resize(m);
   w.cz.resize(m);
   w.cid.resize(m);
-  const std::size_t m4 = (m + 3) & ~std::size_t{3};  // whole quadruples for the selection
-  w.dist.resize(m4);
-  for (std::size_t j = m; j < m4; ++j)
+  const std::size_t m8 = (m + 7) & ~std::size_t{7};  // whole groups of 8 for the selection
+  w.dist.resize(m8);
+  for (std::size_t j = m; j < m8; ++j)
     w.dist[j] = std::numeric_limits<float>::infinity();  // within no bound
   for (std::size_t j = 0; j < m; ++j)
   {
@@ -338,7 +376,7 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
   }
   const std::size_t ku = static_cast<std::size_t>(k);
   w.keys.resize(ku);
-  w.sel.resize(m4);
+  w.sel.resize(m8);
   w.rank_d.resize(kRankMax + 4);
   w.rank_id.resize(kRankMax + 4);
   std::ptrdiff_t prev = -1;  // the last point of the block answered from the candidates
@@ -379,10 +417,21 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
       for (const float b : {guess, sure})
       {
         const float bound = b * b;
-        const std::size_t c = selectWithin(d2, m, bound, sel);
+        const std::size_t c = selectWithin(d2, m, bound, sel, w.wide);
         if (c > ku)
         {
           inside = c;
+          if (c > kRankMax)
+          {
+            // Too many to rank (the density fell since the previous point): try a bound that on
+            // a surface (count ~ bound²) would hold ~1.3 (k + 1); kept only if it holds more than k.
+            const float tighter = bound * (1.3f * static_cast<float>(ku + 1) / static_cast<float>(c));
+            const std::size_t ct = selectWithin(d2, m, tighter, sel, w.wide);
+            if (ct > ku)
+              inside = ct;
+            else
+              selectWithin(d2, m, bound, sel, w.wide);
+          }
           break;
         }
         if (guess >= sure)

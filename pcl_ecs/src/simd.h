@@ -12,6 +12,8 @@
 #endif
 #define PCL_ECS_ALWAYS_INLINE inline __attribute__((always_inline))
 
+#include <cstdint>
+
 namespace pcl_ecs
 {
 namespace detail
@@ -22,6 +24,30 @@ bool useAvx2();
 
 /** \brief Switch the AVX2 versions off (false) or back on where the CPU has them (tests). */
 void allowAvx2(bool allow);
+
+/** \brief For each 8-bit mask of lanes: the lanes it selects packed to the front (then zeros) and
+ * how many: one permutation packs the selected elements of an eight-lane register. */
+struct CompressTable
+{
+  std::int32_t lanes[256][8];
+  std::uint8_t count[256];
+};
+
+constexpr CompressTable makeCompressTable()
+{
+  CompressTable t{};
+  for (int mask = 0; mask < 256; ++mask)
+  {
+    int c = 0;
+    for (int l = 0; l < 8; ++l)
+      if (mask & (1 << l))
+        t.lanes[mask][c++] = l;
+    t.count[mask] = static_cast<std::uint8_t>(c);
+  }
+  return t;
+}
+
+alignas(32) inline constexpr CompressTable kCompress8 = makeCompressTable();
 
 }  // namespace detail
 }  // namespace pcl_ecs

@@ -104,26 +104,6 @@ int scanRunPortable(const float* x, const float* y, const float* z, const int* i
 }
 
 #ifdef PCL_ECS_HAVE_AVX2_PATH
-/// For each 8-bit mask: the lanes it selects, packed to the front, and how many there are.
-struct CompressTable
-{
-  std::int32_t lanes[256][8];
-  std::uint8_t count[256];
-};
-constexpr CompressTable makeCompressTable()
-{
-  CompressTable t{};
-  for (int mask = 0; mask < 256; ++mask)
-  {
-    int c = 0;
-    for (int l = 0; l < 8; ++l)
-      if (mask & (1 << l))
-        t.lanes[mask][c++] = l;
-    t.count[mask] = static_cast<std::uint8_t>(c);
-  }
-  return t;
-}
-alignas(32) constexpr CompressTable kCompress = makeCompressTable();
 
 /// The same as scanRunPortable, eight points per instruction: distances by the same operations
 /// in the same order (no fused multiply-add: the same bits), the points within reach packed to
@@ -143,11 +123,11 @@ PCL_ECS_AVX2_TARGET int scanRunAvx2(const float* x, const float* y, const float*
     const __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
                                     _mm256_mul_ps(dz, dz));
     const int mask = _mm256_movemask_ps(_mm256_cmp_ps(d2, limit, _CMP_LE_OQ));
-    const __m256i lanes = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(kCompress.lanes[mask]));
+    const __m256i lanes = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(detail::kCompress8.lanes[mask]));
     _mm256_storeu_ps(out_d + kept, _mm256_permutevar8x32_ps(d2, lanes));
     const __m256i id = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ids + j));
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(out_i + kept), _mm256_permutevar8x32_epi32(id, lanes));
-    kept += kCompress.count[mask];
+    kept += detail::kCompress8.count[mask];
   }
   return kept;
 }
