@@ -1,11 +1,13 @@
-// The private weighted plane sum (pcl_ecs/src/plane_sums.h): the AVX2 and the portable versions
-// against a plain scalar loop in the documented order, bit for bit.
+// The private loops of E(r) (pcl_ecs/src/plane_sums.h): the AVX2 and the portable versions against
+// plain scalar loops, bit for bit.
 #include "plane_sums.h"
+#include "simd.h"
 
 #include <gtest/gtest.h>
 
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -91,3 +93,37 @@ TEST(PlaneSums, AlternatingChainsAddEveryPlaneOnce)
     EXPECT_EQ(92.0 * (k + 1), sum[k]) << "term " << k;
 }
 }  // namespace
+
+TEST(PlaneSums, KernelPiecesSplitLikeTheKernelWithAndWithoutAvx2)
+{
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> spread(0.0, 1.5);
+  const double R = 0.8;
+  for (const std::size_t m : {0u, 1u, 2u, 3u, 4u, 5u, 17u, 250u})
+  {
+    std::vector<double> dist((m + 3) & ~std::size_t{3}, std::numeric_limits<double>::infinity());
+    for (std::size_t j = 0; j < m; ++j)
+      dist[j] = j % 7 == 3 ? 0.5 * R : j % 7 == 5 ? R : spread(rng) * R;  // both boundaries too
+    std::vector<std::uint32_t> want_in, want_out;
+    for (std::size_t j = 0; j < m; ++j)
+    {
+      const double t = dist[j] * (1.0 / R);
+      if (t <= 0.5)
+        want_in.push_back(static_cast<std::uint32_t>(j));
+      else if (t <= 1.0)
+        want_out.push_back(static_cast<std::uint32_t>(j));
+    }
+    for (const bool avx2 : {false, true})
+    {
+      pcl_ecs::detail::allowAvx2(avx2);
+      std::vector<std::uint32_t> in(m + 8), out(m + 8);
+      std::size_t n_in = 99, n_out = 99;
+      pcl_ecs::detail::selectKernelPieces(dist.data(), m, 1.0 / R, in.data(), n_in, out.data(), n_out);
+      pcl_ecs::detail::allowAvx2(true);
+      in.resize(n_in);
+      out.resize(n_out);
+      EXPECT_EQ(in, want_in) << m << " planes, AVX2 " << avx2;
+      EXPECT_EQ(out, want_out) << m << " planes, AVX2 " << avx2;
+    }
+  }
+}

@@ -1,5 +1,5 @@
-// plane_sums.h — the weighted sum of tangent-plane terms that every E(r) evaluation ends in
-// (eq. 13), private to the library. One portable version (SSE2 on x86-64) and one that uses AVX2
+// plane_sums.h — the two loops of every E(r) evaluation (eq. 13): which planes fall in which
+// piece of the kernel, and the weighted sum of their terms; private to the library. One portable version (SSE2 on x86-64) and one that uses AVX2
 // where the CPU has it, chosen at run time; both do the same operations in the same order
 // (separate multiplies and adds, never fused), so the output is the same bits on any x86-64.
 #pragma once
@@ -13,6 +13,12 @@ namespace pcl_ecs
 {
 namespace detail
 {
+
+/** \brief The planes in each piece of the kernel at R = 1 / inv_R: positions j < m with
+ * dist[j] / R <= 1/2 into inner, with 1/2 < dist[j] / R <= 1 into outer, in order, and their
+ * counts. dist is padded with +inf to a multiple of 4; inner and outer have room for m + 8. */
+void selectKernelPieces(const double* dist, std::size_t m, double inv_R, std::uint32_t* inner,
+                        std::size_t& n_inner, std::uint32_t* outer, std::size_t& n_outer);
 
 /** \brief sum[k] = Σ_s g[s] × terms[idx[s]].t[k], k < 12. The planes go alternately into two
  * running sums (even s, odd s), added at the end: two independent chains of additions, so one

@@ -14,6 +14,81 @@ namespace pcl_ecs
 namespace detail
 {
 
+namespace
+{
+void selectKernelPiecesPortable(const double* dist, std::size_t m, double inv_R, std::uint32_t* inner,
+                                std::size_t& n_inner, std::uint32_t* outer, std::size_t& n_outer)
+{
+  n_inner = n_outer = 0;
+#ifdef __SSE2__
+  // Two distances per instruction; a pair's two masks pick the packing of its lanes (an odd m's
+  // last pair ends with the +inf padding: in no piece).
+  static constexpr std::uint32_t kLane[4][2] = {{0, 0}, {0, 0}, {1, 0}, {0, 1}};
+  static constexpr std::uint32_t kCount[4] = {0, 1, 1, 2};
+  const __m128d scale = _mm_set1_pd(inv_R), half = _mm_set1_pd(0.5), one = _mm_set1_pd(1.0);
+  for (std::size_t j = 0; j < m; j += 2)
+  {
+    const __m128d t = _mm_mul_pd(_mm_loadu_pd(dist + j), scale);
+    const int in = _mm_movemask_pd(_mm_cmple_pd(t, half));
+    const int out = _mm_movemask_pd(_mm_and_pd(_mm_cmpgt_pd(t, half), _mm_cmple_pd(t, one)));
+    const auto base = static_cast<std::uint32_t>(j);
+    inner[n_inner] = base + kLane[in][0];
+    inner[n_inner + 1] = base + kLane[in][1];
+    n_inner += kCount[in];
+    outer[n_outer] = base + kLane[out][0];
+    outer[n_outer + 1] = base + kLane[out][1];
+    n_outer += kCount[out];
+  }
+#else
+  for (std::size_t j = 0; j < m; ++j)
+  {
+    const double t = dist[j] * inv_R;
+    inner[n_inner] = static_cast<std::uint32_t>(j);
+    outer[n_outer] = static_cast<std::uint32_t>(j);
+    n_inner += t <= 0.5 ? 1 : 0;
+    n_outer += (t > 0.5) & (t <= 1.0) ? 1 : 0;
+  }
+#endif
+}
+
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+/// Four distances per instruction; each mask's lanes packed by the shared compress table.
+PCL_ECS_AVX2_TARGET void selectKernelPiecesAvx2(const double* dist, std::size_t m, double inv_R,
+                                                std::uint32_t* inner, std::size_t& n_inner,
+                                                std::uint32_t* outer, std::size_t& n_outer)
+{
+  std::size_t ni = 0, no = 0;
+  const __m256d scale = _mm256_set1_pd(inv_R), half = _mm256_set1_pd(0.5), one = _mm256_set1_pd(1.0);
+  for (std::size_t j = 0; j < m; j += 4)
+  {
+    const __m256d t = _mm256_mul_pd(_mm256_loadu_pd(dist + j), scale);
+    const int in = _mm256_movemask_pd(_mm256_cmp_pd(t, half, _CMP_LE_OQ));
+    const int out = _mm256_movemask_pd(
+        _mm256_and_pd(_mm256_cmp_pd(t, half, _CMP_GT_OQ), _mm256_cmp_pd(t, one, _CMP_LE_OQ)));
+    const __m128i base = _mm_set1_epi32(static_cast<int>(j));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(inner + ni),
+                     _mm_add_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(kCompress8.lanes[in])), base));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(outer + no),
+                     _mm_add_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(kCompress8.lanes[out])), base));
+    ni += kCompress8.count[in];
+    no += kCompress8.count[out];
+  }
+  n_inner = ni;
+  n_outer = no;
+}
+#endif
+}  // namespace
+
+void selectKernelPieces(const double* dist, std::size_t m, double inv_R, std::uint32_t* inner,
+                        std::size_t& n_inner, std::uint32_t* outer, std::size_t& n_outer)
+{
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+  if (useAvx2())
+    return selectKernelPiecesAvx2(dist, m, inv_R, inner, n_inner, outer, n_outer);
+#endif
+  selectKernelPiecesPortable(dist, m, inv_R, inner, n_inner, outer, n_outer);
+}
+
 void weightedPlaneSumPortable(const CandidatePlanes::Terms* terms, const std::uint32_t* idx,
                               const double* g, std::size_t count, double* sum)
 {

@@ -9,10 +9,6 @@
 #include <cstdint>
 #include <limits>
 
-#ifdef __SSE2__
-#include <emmintrin.h>
-#endif
-
 namespace pcl_ecs
 {
 
@@ -28,11 +24,12 @@ void candidatePlanes(const QuadricSamples& samples, const Eigen::Vector3d& centr
                      const std::vector<BallCandidate>& candidates, CandidatePlanes& planes,
                      std::size_t first)
 {
-  // Distances padded to whole pairs with +inf (in no piece of the kernel) for evaluateRadius.
+  // Distances padded to whole quadruples with +inf (in no piece of the kernel) for evaluateRadius.
   const std::size_t m = candidates.size();
-  planes.distance.resize(m + (m & 1));
-  if (m & 1)
-    planes.distance[m] = std::numeric_limits<double>::infinity();
+  const std::size_t m4 = (m + 3) & ~std::size_t{3};
+  planes.distance.resize(m4);
+  for (std::size_t j = m; j < m4; ++j)
+    planes.distance[j] = std::numeric_limits<double>::infinity();
   planes.terms.resize(m);
   for (std::size_t i = first; i < candidates.size(); ++i)
   {
@@ -68,39 +65,11 @@ RadiusEvaluation evaluateRadius(const CandidatePlanes& planes, double r, double 
   // in plane order, the inner piece first (detail::weightedPlaneSum). Distances are >= 0.
   const std::size_t m = planes.size();
   thread_local std::vector<std::uint32_t> inner, outer;
-  inner.resize(m + 2);  // then the outer ones appended after the inner
-  outer.resize(m + 2);
+  inner.resize(m + 8);  // then the outer ones appended after the inner
+  outer.resize(m + 8);
   std::size_t n_inner = 0, n_outer = 0;
   const double* dist = planes.distance.data();
-#ifdef __SSE2__
-  // Two distances per instruction; a pair's two masks pick the packing of its lanes (an odd m's
-  // last pair ends with candidatePlanes' +inf padding: in no piece).
-  static constexpr std::uint32_t kLane[4][2] = {{0, 0}, {0, 0}, {1, 0}, {0, 1}};
-  static constexpr std::uint32_t kCount[4] = {0, 1, 1, 2};
-  const __m128d scale = _mm_set1_pd(inv_R), half = _mm_set1_pd(0.5), one = _mm_set1_pd(1.0);
-  for (std::size_t j = 0; j < m; j += 2)
-  {
-    const __m128d t = _mm_mul_pd(_mm_loadu_pd(dist + j), scale);
-    const int in = _mm_movemask_pd(_mm_cmple_pd(t, half));
-    const int out = _mm_movemask_pd(_mm_and_pd(_mm_cmpgt_pd(t, half), _mm_cmple_pd(t, one)));
-    const auto base = static_cast<std::uint32_t>(j);
-    inner[n_inner] = base + kLane[in][0];
-    inner[n_inner + 1] = base + kLane[in][1];
-    n_inner += kCount[in];
-    outer[n_outer] = base + kLane[out][0];
-    outer[n_outer + 1] = base + kLane[out][1];
-    n_outer += kCount[out];
-  }
-#else
-  for (std::size_t j = 0; j < m; ++j)
-  {
-    const double t = dist[j] * inv_R;
-    inner[n_inner] = static_cast<std::uint32_t>(j);
-    outer[n_outer] = static_cast<std::uint32_t>(j);
-    n_inner += t <= 0.5 ? 1 : 0;
-    n_outer += (t > 0.5) & (t <= 1.0) ? 1 : 0;
-  }
-#endif
+  detail::selectKernelPieces(dist, m, inv_R, inner.data(), n_inner, outer.data(), n_outer);
   // The weights, then the weighted sums over both pieces (inner planes first, then outer).
   thread_local std::vector<double> g;
   g.resize(n_inner + n_outer);

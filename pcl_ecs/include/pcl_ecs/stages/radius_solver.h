@@ -65,7 +65,7 @@ struct CandidatePlanes
     Terms() {}  // NOLINT(modernize-use-equals-default): = default would value-initialise
     double t[12];
   };
-  std::vector<double> distance;  ///< |p_j - c|, padded with +inf to an even count
+  std::vector<double> distance;  ///< |p_j - c|, padded with +inf to a multiple of 4
   std::vector<Terms> terms;
   std::size_t size() const { return terms.size(); }
   void clear()
