@@ -192,11 +192,10 @@ constexpr std::size_t kRankMax = 32;
 
 /// The k smallest (distance, index) pairs of c candidates as sorted keys, c >= k, indices
 /// distinct, distances finite and >= 0; `d` and `id` have room for c rounded up to a multiple of
-/// 4. Each candidate's place is the number of candidates that order before it (a smaller distance,
-/// or the same and a smaller index), counted without a branch (the loop vectorises: compares and
-/// a masked count).
-PCL_ECS_ALWAYS_INLINE void smallestByRankBody(float* d, int* id, std::size_t c, std::size_t k,
-                                               std::uint64_t* keys)
+/// 8 (smallestByRank below). Each candidate's place is the number of candidates that order before
+/// it (a smaller distance, or the same and a smaller index), counted without a branch (the loop
+/// vectorises: compares and a masked count).
+void smallestByRankPortable(float* d, int* id, std::size_t c, std::size_t k, std::uint64_t* keys)
 {
   const std::size_t padded = (c + 3) & ~std::size_t{3};
   for (std::size_t b = c; b < padded; ++b)
@@ -228,11 +227,6 @@ PCL_ECS_ALWAYS_INLINE void squaredDistancesBody(const pcl::PointXYZ& q, const fl
   }
 }
 
-void smallestByRankPortable(float* d, int* id, std::size_t c, std::size_t k, std::uint64_t* keys)
-{
-  smallestByRankBody(d, id, c, k, keys);
-}
-
 void squaredDistancesPortable(const pcl::PointXYZ& q, const float* cx, const float* cy,
                               const float* cz, std::size_t m, float* d2)
 {
@@ -240,10 +234,39 @@ void squaredDistancesPortable(const pcl::PointXYZ& q, const float* cx, const flo
 }
 
 #ifdef PCL_ECS_HAVE_AVX2_PATH
+/// smallestByRank with the roles turned: eight candidates' places counted at once, one pass over
+/// the c candidates each (a broadcast and three compares per candidate, no horizontal sums).
+/// `d` and `id` have room for c rounded up to a multiple of 8.
 PCL_ECS_AVX2_TARGET void smallestByRankAvx2(float* d, int* id, std::size_t c, std::size_t k,
                                             std::uint64_t* keys)
 {
-  smallestByRankBody(d, id, c, k, keys);
+  const std::size_t padded = (c + 7) & ~std::size_t{7};
+  for (std::size_t b = c; b < padded; ++b)
+  {
+    d[b] = std::numeric_limits<float>::infinity();  // lanes past c: computed, never stored
+    id[b] = std::numeric_limits<int>::max();
+  }
+  for (std::size_t a = 0; a < c; a += 8)
+  {
+    const __m256 ad = _mm256_loadu_ps(d + a);
+    const __m256i ai = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(id + a));
+    __m256i before = _mm256_setzero_si256();
+    for (std::size_t b = 0; b < c; ++b)
+    {
+      const __m256 bd = _mm256_broadcast_ss(d + b);
+      const __m256i bi = _mm256_set1_epi32(id[b]);
+      const __m256 tie_first = _mm256_and_ps(_mm256_cmp_ps(bd, ad, _CMP_EQ_OQ),
+                                             _mm256_castsi256_ps(_mm256_cmpgt_epi32(ai, bi)));
+      const __m256 orders_before = _mm256_or_ps(_mm256_cmp_ps(bd, ad, _CMP_LT_OQ), tie_first);
+      before = _mm256_sub_epi32(before, _mm256_castps_si256(orders_before));  // mask is -1
+    }
+    alignas(32) std::int32_t place[8];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(place), before);
+    const std::size_t lanes = std::min<std::size_t>(8, c - a);
+    for (std::size_t l = 0; l < lanes; ++l)
+      if (static_cast<std::size_t>(place[l]) < k)
+        keys[place[l]] = pairKey(d[a + l], id[a + l]);
+  }
 }
 
 PCL_ECS_AVX2_TARGET void squaredDistancesAvx2(const pcl::PointXYZ& q, const float* cx,
@@ -377,8 +400,8 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
   const std::size_t ku = static_cast<std::size_t>(k);
   w.keys.resize(ku);
   w.sel.resize(m8);
-  w.rank_d.resize(kRankMax + 4);
-  w.rank_id.resize(kRankMax + 4);
+  w.rank_d.resize(kRankMax + 8);
+  w.rank_id.resize(kRankMax + 8);
   std::ptrdiff_t prev = -1;  // the last point of the block answered from the candidates
   float prev_kth = 0.f;
   for (std::ptrdiff_t i = first; i < last; ++i)
