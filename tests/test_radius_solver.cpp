@@ -7,6 +7,7 @@
 #include "test_support.h"
 
 #include <algorithm>
+#include <cstring>
 
 #include <gtest/gtest.h>
 
@@ -148,5 +149,44 @@ TEST(RadiusSolver, PortableAndAvx2SumsGiveTheSameBits)
     EXPECT_EQ(portable.error, wide.error) << "r " << r;
     EXPECT_EQ(portable.weight_sum, wide.weight_sum) << "r " << r;
     EXPECT_EQ(portable.minimum.x, wide.minimum.x) << "r " << r;
+  }
+}
+
+TEST(RadiusSolver, CandidatePlanesAreTheSameBitsWithAndWithoutAvx2)
+{
+  // The planes' terms are computed four candidates at a time where the CPU has AVX2, one at a
+  // time elsewhere (and for the last few): the same bits, also when planes are appended to those
+  // of a smaller query (first > 0, not a multiple of 4).
+  Fixture f(fibonacciSphere(5000, 1.0));
+  const Eigen::Vector3d centre = (*f.cloud)[99].getVector3fMap().cast<double>();
+  AllPoints src(*f.cloud, centre);
+  const std::vector<pcl_ecs::BallCandidate> all(src.all.begin(), src.all.begin() + 203);
+  const std::vector<pcl_ecs::BallCandidate> head(all.begin(), all.begin() + 37);
+  pcl_ecs::CandidatePlanes portable, wide;
+  pcl_ecs::detail::allowAvx2(false);
+  pcl_ecs::candidatePlanes(f.samples(), centre, head, portable);
+  pcl_ecs::candidatePlanes(f.samples(), centre, all, portable, head.size());
+  pcl_ecs::detail::allowAvx2(true);
+  pcl_ecs::candidatePlanes(f.samples(), centre, head, wide);
+  pcl_ecs::candidatePlanes(f.samples(), centre, all, wide, head.size());
+  ASSERT_EQ(portable.size(), all.size());
+  ASSERT_EQ(wide.size(), all.size());
+  EXPECT_EQ(portable.distance, wide.distance);
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i < all.size(); ++i)
+    differ += std::memcmp(portable.terms[i].t, wide.terms[i].t, sizeof portable.terms[i].t) != 0 ? 1 : 0;
+  EXPECT_EQ(differ, 0u);
+  // And the terms are those of eq. 13: a n nᵀ, a d n, a d², a (d = n · (p - c)).
+  for (const std::size_t i : {std::size_t{0}, std::size_t{41}, std::size_t{202}})
+  {
+    const auto j = static_cast<std::size_t>(all[i].index);
+    const Eigen::Vector3d n = f.normals[j].cast<double>();
+    const double a = f.weights[j], d = n.dot((*f.cloud)[j].getVector3fMap().cast<double>() - centre);
+    const double* t = wide.terms[i].t;
+    EXPECT_NEAR(t[0], a * n.x() * n.x(), 1e-15);
+    EXPECT_NEAR(t[4], a * n.y() * n.z(), 1e-15);
+    EXPECT_NEAR(t[8], a * n.z() * d, 1e-15);
+    EXPECT_NEAR(t[9], a * d * d, 1e-15);
+    EXPECT_EQ(t[10], a);
   }
 }

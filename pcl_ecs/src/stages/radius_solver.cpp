@@ -3,6 +3,11 @@
 #include <pcl_ecs/stages/kernel.h>
 
 #include "../plane_sums.h"
+#include "../simd.h"
+
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+#include <immintrin.h>
+#endif
 
 #include <algorithm>
 #include <cmath>
@@ -20,6 +25,87 @@ double errorOf(const QuadricMinimum& minimum, double weight_sum, double L, Error
   return form == ErrorForm::Paper ? std::sqrt(q) / L : std::sqrt(q / weight_sum) / L;
 }
 
+namespace
+{
+/// The terms of candidate i's plane (one at a time; candidatePlanesAvx2 does four with the same
+/// operations in the same order).
+inline void planeTerms(const QuadricSamples& samples, const Eigen::Vector3d& centre,
+                       const BallCandidate& candidate, double* t)
+{
+  const auto j = static_cast<std::size_t>(candidate.index);
+  const Eigen::Vector3f& nf = samples.normals[j];
+  const pcl::PointXYZ& p = samples.cloud[candidate.index];
+  const double n0 = nf.x(), n1 = nf.y(), n2 = nf.z();
+  const double o0 = static_cast<double>(p.x) - centre.x(), o1 = static_cast<double>(p.y) - centre.y(),
+               o2 = static_cast<double>(p.z) - centre.z();
+  const double a = samples.weights[j], d = (n0 * o0 + n1 * o1) + n2 * o2;
+  const double an0 = a * n0, an1 = a * n1, an2 = a * n2;
+  t[0] = an0 * n0;
+  t[1] = an0 * n1;
+  t[2] = an0 * n2;
+  t[3] = an1 * n1;
+  t[4] = an1 * n2;
+  t[5] = an2 * n2;
+  t[6] = an0 * d;
+  t[7] = an1 * d;
+  t[8] = an2 * d;
+  t[9] = (a * d) * d;
+  t[10] = a;
+  t[11] = 0.0;
+}
+
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+/// Candidates [first, last) four at a time (last - first a multiple of 4): each term computed for
+/// four candidates in one register (double), then written candidate by candidate (4x4 transposes).
+PCL_ECS_AVX2_TARGET void candidatePlanesAvx2(const QuadricSamples& samples, const Eigen::Vector3d& centre,
+                                             const BallCandidate* candidates, std::size_t first,
+                                             std::size_t last, CandidatePlanes::Terms* terms)
+{
+  const __m256d c0 = _mm256_set1_pd(centre.x()), c1 = _mm256_set1_pd(centre.y()),
+                c2 = _mm256_set1_pd(centre.z());
+  const pcl::PointXYZ* points = samples.cloud.points.data();
+  const Eigen::Vector3f* normals = samples.normals.data();
+  const double* weights = samples.weights.data();
+  // The four rows [t(k) t(k+1) t(k+2) t(k+3)] of the four candidates from the four term vectors.
+  auto store4 = [](__m256d ta, __m256d tb, __m256d tc, __m256d td, CandidatePlanes::Terms* out,
+                   int k) PCL_ECS_AVX2_TARGET {
+    const __m256d ab_lo = _mm256_unpacklo_pd(ta, tb), ab_hi = _mm256_unpackhi_pd(ta, tb);
+    const __m256d cd_lo = _mm256_unpacklo_pd(tc, td), cd_hi = _mm256_unpackhi_pd(tc, td);
+    _mm256_storeu_pd(out[0].t + k, _mm256_permute2f128_pd(ab_lo, cd_lo, 0x20));
+    _mm256_storeu_pd(out[1].t + k, _mm256_permute2f128_pd(ab_hi, cd_hi, 0x20));
+    _mm256_storeu_pd(out[2].t + k, _mm256_permute2f128_pd(ab_lo, cd_lo, 0x31));
+    _mm256_storeu_pd(out[3].t + k, _mm256_permute2f128_pd(ab_hi, cd_hi, 0x31));
+  };
+  for (std::size_t i = first; i < last; i += 4)
+  {
+    const int j0 = candidates[i].index, j1 = candidates[i + 1].index, j2 = candidates[i + 2].index,
+              j3 = candidates[i + 3].index;
+    // Points (x, y, z, pad) and normals (x, y, z) of the four, transposed to coordinate vectors.
+    __m128 p0 = _mm_load_ps(&points[j0].x), p1 = _mm_load_ps(&points[j1].x),
+           p2 = _mm_load_ps(&points[j2].x), p3 = _mm_load_ps(&points[j3].x);
+    _MM_TRANSPOSE4_PS(p0, p1, p2, p3);
+    auto normal = [&](int j) PCL_ECS_AVX2_TARGET {
+      const float* n = normals[j].data();
+      return _mm_movelh_ps(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(n))), _mm_load_ss(n + 2));
+    };
+    __m128 m0 = normal(j0), m1 = normal(j1), m2 = normal(j2), m3 = normal(j3);
+    _MM_TRANSPOSE4_PS(m0, m1, m2, m3);
+    const __m256d n0 = _mm256_cvtps_pd(m0), n1 = _mm256_cvtps_pd(m1), n2 = _mm256_cvtps_pd(m2);
+    const __m256d o0 = _mm256_sub_pd(_mm256_cvtps_pd(p0), c0), o1 = _mm256_sub_pd(_mm256_cvtps_pd(p1), c1),
+                  o2 = _mm256_sub_pd(_mm256_cvtps_pd(p2), c2);
+    const __m256d a = _mm256_set_pd(weights[j3], weights[j2], weights[j1], weights[j0]);
+    const __m256d d = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(n0, o0), _mm256_mul_pd(n1, o1)),
+                                    _mm256_mul_pd(n2, o2));
+    const __m256d an0 = _mm256_mul_pd(a, n0), an1 = _mm256_mul_pd(a, n1), an2 = _mm256_mul_pd(a, n2);
+    CandidatePlanes::Terms* out = terms + i;
+    store4(_mm256_mul_pd(an0, n0), _mm256_mul_pd(an0, n1), _mm256_mul_pd(an0, n2), _mm256_mul_pd(an1, n1), out, 0);
+    store4(_mm256_mul_pd(an1, n2), _mm256_mul_pd(an2, n2), _mm256_mul_pd(an0, d), _mm256_mul_pd(an1, d), out, 4);
+    store4(_mm256_mul_pd(an2, d), _mm256_mul_pd(_mm256_mul_pd(a, d), d), a, _mm256_setzero_pd(), out, 8);
+  }
+}
+#endif
+}  // namespace
+
 void candidatePlanes(const QuadricSamples& samples, const Eigen::Vector3d& centre,
                      const std::vector<BallCandidate>& candidates, CandidatePlanes& planes,
                      std::size_t first)
@@ -31,28 +117,19 @@ void candidatePlanes(const QuadricSamples& samples, const Eigen::Vector3d& centr
   for (std::size_t j = m; j < m4; ++j)
     planes.distance[j] = std::numeric_limits<double>::infinity();
   planes.terms.resize(m);
-  for (std::size_t i = first; i < candidates.size(); ++i)
-  {
-    const auto j = static_cast<std::size_t>(candidates[i].index);
-    const Eigen::Vector3d n = samples.normals[j].cast<double>();
-    const Eigen::Vector3d offset = samples.cloud[j].getVector3fMap().cast<double>() - centre;
-    const double a = samples.weights[j], d = n.dot(offset);
+  for (std::size_t i = first; i < m; ++i)
     planes.distance[i] = candidates[i].distance;
-    double* t = planes.terms[i].t;
-    const double an0 = a * n.x(), an1 = a * n.y(), an2 = a * n.z();
-    t[0] = an0 * n.x();
-    t[1] = an0 * n.y();
-    t[2] = an0 * n.z();
-    t[3] = an1 * n.y();
-    t[4] = an1 * n.z();
-    t[5] = an2 * n.z();
-    t[6] = an0 * d;
-    t[7] = an1 * d;
-    t[8] = an2 * d;
-    t[9] = a * d * d;
-    t[10] = a;
-    t[11] = 0.0;
+  std::size_t i = first;
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+  if (detail::useAvx2())
+  {
+    const std::size_t whole = first + ((m - std::min(first, m)) & ~std::size_t{3});
+    candidatePlanesAvx2(samples, centre, candidates.data(), first, whole, planes.terms.data());
+    i = whole;
   }
+#endif
+  for (; i < m; ++i)
+    planeTerms(samples, centre, candidates[i], planes.terms[i].t);
 }
 
 RadiusEvaluation evaluateRadius(const CandidatePlanes& planes, double r, double L, ErrorForm form)
