@@ -58,7 +58,7 @@ public:
 #ifdef __SSE2__
     for (; i + 1 < found; i += 2)  // correctly rounded, as std::sqrt: the same bits
     {
-      const __m128d pair = _mm_cvtps_pd(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(d2 + i))));
+      const __m128d pair = _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(d2 + i))));
       _mm_storeu_pd(dist + i, _mm_sqrt_pd(pair));
     }
 #endif

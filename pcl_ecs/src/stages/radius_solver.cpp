@@ -86,7 +86,9 @@ PCL_ECS_AVX2_TARGET void candidatePlanesAvx2(const QuadricSamples& samples, cons
     _MM_TRANSPOSE4_PS(p0, p1, p2, p3);
     auto normal = [&](int j) PCL_ECS_AVX2_TARGET {
       const float* n = normals[j].data();
-      return _mm_movelh_ps(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(n))), _mm_load_ss(n + 2));
+      // x, y by one 8-byte load (an unaligned type: a normal is only 4-byte aligned), then z.
+      return _mm_movelh_ps(_mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(n))),
+                           _mm_load_ss(n + 2));
     };
     __m128 m0 = normal(j0), m1 = normal(j1), m2 = normal(j2), m3 = normal(j3);
     _MM_TRANSPOSE4_PS(m0, m1, m2, m3);
