@@ -7,10 +7,6 @@
 
 #include <gtest/gtest.h>
 
-#include "simd.h"  // private: switch the AVX2 loops off and on
-
-#include <set>
-
 namespace
 {
 /// The cells of a g × g × g grid over the unit cube, sorted by the code of their centres.
@@ -85,24 +81,6 @@ TEST(SpatialOrder, BatchCodesEqualSingleCodes)
     for (std::size_t i = 0; i < count; ++i)
       EXPECT_EQ(codes[i], pcl_ecs::spatialCode(pts[i], lo, hi)) << i << " of " << count;
   }
-}
-
-// The lanes are encoded in AVX2 registers where the CPU has them: the same codes without.
-TEST(SpatialOrder, CodesAreTheSameWithAndWithoutAvx2)
-{
-  std::mt19937 rng(11);
-  std::uniform_real_distribution<double> u(-2.0, 3.0);
-  const Eigen::Vector3d lo(-2, -1, 0), hi(3, 2, 1);
-  std::vector<Eigen::Vector3d> pts;
-  for (int i = 0; i < 4003; ++i)
-    pts.emplace_back(u(rng), u(rng), u(rng));
-  std::vector<std::uint64_t> portable(pts.size()), wide(pts.size());
-  pcl_ecs::detail::allowAvx2(false);
-  pcl_ecs::spatialCodes(pts.data(), pts.size(), lo, hi, portable.data());
-  pcl_ecs::detail::allowAvx2(true);
-  pcl_ecs::spatialCodes(pts.data(), pts.size(), lo, hi, wide.data());
-  EXPECT_EQ(portable, wide);
-  EXPECT_GT(std::set<std::uint64_t>(wide.begin(), wide.end()).size(), 3990u);  // codes, not zeros
 }
 
 TEST(SpatialOrder, SortIsByCodeThenIdWhateverTheThreads)

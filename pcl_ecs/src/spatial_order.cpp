@@ -2,7 +2,6 @@
 #include <pcl_ecs/types.h>
 
 #include "radix_sort.h"
-#include "simd.h"
 
 #include <algorithm>
 #include <cmath>
@@ -39,8 +38,8 @@ inline std::uint32_t cellOf(double x, double lo, double extent)
 
 /// Hilbert indices of kLanes grid points (X[axis][lane]), by J. Skilling's transpose algorithm
 /// ("Programming the Hilbert curve", AIP Conf. Proc. 707, 2004), written without branches so that
-/// the lanes run side by side in vector registers (one AVX2 register per axis where the CPU has it).
-PCL_ECS_ALWAYS_INLINE void hilbertLanesBody(std::uint32_t (&X)[3][kLanes], std::uint64_t* codes)
+/// the lanes run side by side in vector registers.
+void hilbertLanes(std::uint32_t (&X)[3][kLanes], std::uint64_t* codes)
 {
   std::uint32_t* x0 = X[0];
   std::uint32_t* x1 = X[1];
@@ -80,27 +79,6 @@ PCL_ECS_ALWAYS_INLINE void hilbertLanesBody(std::uint32_t (&X)[3][kLanes], std::
   // The transposed index, interleaved: bit b of X[0], X[1], X[2], most significant first.
   for (int j = 0; j < kLanes; ++j)
     codes[j] = (spread(x0[j] ^ t[j]) << 2) | (spread(x1[j] ^ t[j]) << 1) | spread(x2[j] ^ t[j]);
-}
-
-void hilbertLanesPortable(std::uint32_t (&X)[3][kLanes], std::uint64_t* codes)
-{
-  hilbertLanesBody(X, codes);
-}
-
-#ifdef PCL_ECS_HAVE_AVX2_PATH
-PCL_ECS_AVX2_TARGET void hilbertLanesAvx2(std::uint32_t (&X)[3][kLanes], std::uint64_t* codes)
-{
-  hilbertLanesBody(X, codes);
-}
-#endif
-
-void hilbertLanes(std::uint32_t (&X)[3][kLanes], std::uint64_t* codes)
-{
-#ifdef PCL_ECS_HAVE_AVX2_PATH
-  if (detail::useAvx2())
-    return hilbertLanesAvx2(X, codes);
-#endif
-  hilbertLanesPortable(X, codes);
 }
 
 /// Codes of points [first, first + count) (count <= kLanes), read through `at(i)`.
