@@ -6,10 +6,13 @@
 #include <pcl_ecs/stages/paraboloid_curvature.h>
 #include <pcl_ecs/simplify_core.h>
 
+#include "simd.h"  // private: switch the AVX2 loops off and on
 #include "synthetic_shapes.h"
 #include "test_support.h"
 
 #include <gtest/gtest.h>
+
+#include <cstring>
 
 using namespace pcl_ecs_test;
 
@@ -311,4 +314,29 @@ TEST(GapFill, FarFromAndCloseGapsOnPlainPoints)
       best = std::min(best, (points[c] - points[k]).norm());
     EXPECT_LE(best, gap) << k;
   }
+}
+
+// Every loop of the cover that has an AVX2 build (square roots, candidate planes, the kernel's
+// pieces, the plane sums; and the K-table and curvature before it) gives the same bits without
+// it: the same balls, radii, representatives and owners.
+TEST(BallCover, SameCoverWithAndWithoutAvx2)
+{
+  auto cloud = fibonacciSphere(6000, 1.0, 0.002, 4);  // noisy: radii differ from ball to ball
+  pcl_ecs::detail::allowAvx2(false);
+  CoverRun portable(cloud, pcl_ecs::Parameters{}, 5e-4);
+  pcl_ecs::detail::allowAvx2(true);
+  CoverRun wide(cloud, pcl_ecs::Parameters{}, 5e-4);
+  ASSERT_EQ(portable.out.balls.size(), wide.out.balls.size());
+  EXPECT_GT(wide.out.balls.size(), 100u);
+  std::size_t differ = 0;
+  for (std::size_t b = 0; b < wide.out.balls.size(); ++b)
+  {
+    const auto &p = portable.out.balls[b], &w = wide.out.balls[b];
+    differ += p.centre != w.centre || std::memcmp(&p.radius, &w.radius, sizeof p.radius) != 0 ||
+                      std::memcmp(p.representative.data(), w.representative.data(), 3 * sizeof(double)) != 0
+                  ? 1
+                  : 0;
+  }
+  EXPECT_EQ(differ, 0u);
+  EXPECT_EQ(portable.out.owner, wide.out.owner);
 }
