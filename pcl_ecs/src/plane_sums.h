@@ -1,7 +1,7 @@
-// plane_sums.h — the two loops of every E(r) evaluation (eq. 13): which planes fall in which
-// piece of the kernel, and the weighted sum of their terms; private to the library. One portable version (SSE2 on x86-64) and one that uses AVX2
-// where the CPU has it, chosen at run time; both do the same operations in the same order
-// (separate multiplies and adds, never fused), so the output is the same bits on any x86-64.
+// plane_sums.h — the two loops of every E(r) evaluation (eq. 13), private to the library: which
+// planes fall in which piece of the kernel, and the weighted sum of their terms. Each has a
+// portable version (SSE2 on x86-64) and an AVX2 one, picked at run time (simd.h); both do the
+// same operations in the same order (separate multiplies and adds, never fused): the same bits.
 #pragma once
 
 #include <pcl_ecs/stages/radius_solver.h>
@@ -22,18 +22,9 @@ void selectKernelPieces(const double* dist, std::size_t m, double inv_R, std::ui
 
 /** \brief sum[k] = Σ_s g[s] × terms[idx[s]].t[k], k < 12. The planes go alternately into two
  * running sums (even s, odd s), added at the end: two independent chains of additions, so one
- * plane's sums do not wait on the previous plane's. Uses AVX2 when the CPU has it. */
+ * plane's sums do not wait on the previous plane's. */
 void weightedPlaneSum(const CandidatePlanes::Terms* terms, const std::uint32_t* idx, const double* g,
                       std::size_t count, double* sum);
-
-/** \brief The same sum without AVX2 (what weightedPlaneSum falls back to). */
-void weightedPlaneSumPortable(const CandidatePlanes::Terms* terms, const std::uint32_t* idx,
-                              const double* g, std::size_t count, double* sum);
-
-/** \brief The AVX2 version; false (sum untouched) when it cannot run (no AVX2 on this CPU or in
- * this build, or switched off by allowAvx2). */
-bool weightedPlaneSumWide(const CandidatePlanes::Terms* terms, const std::uint32_t* idx,
-                          const double* g, std::size_t count, double* sum);
 
 }  // namespace detail
 }  // namespace pcl_ecs

@@ -1,9 +1,10 @@
-// simd.h — hot loops compiled twice, once for any x86-64 (SSE2) and once for AVX2, the version
-// picked at run time (private to the library). A kernel's body is an always-inline function of
-// plain loops that the compiler vectorises; two thin wrappers instantiate it, one with
-// PCL_ECS_AVX2_TARGET. The target is "avx2" alone, never "fma": a fused multiply-add rounds once
-// instead of twice, so both versions give the same bits (tests switch the AVX2 path off with
-// allowAvx2(false) and compare).
+// simd.h — hot loops built twice, once for any x86-64 (SSE2) and once for AVX2, the version picked
+// at run time by useAvx2() (private to the library). The AVX2 version is either the same plain
+// loop compiled again in a function marked PCL_ECS_AVX2_TARGET (a PCL_ECS_ALWAYS_INLINE body and
+// two thin wrappers) or written with AVX2 intrinsics where the compiler does not vectorise it.
+// The target is "avx2" alone, never "fma": a fused multiply-add rounds once instead of twice, so
+// both versions give the same bits (tests switch the AVX2 path off with allowAvx2(false) and
+// compare).
 #pragma once
 
 #if defined(__x86_64__) && defined(__GNUC__)

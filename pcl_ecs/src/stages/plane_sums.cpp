@@ -1,10 +1,9 @@
 #include "../plane_sums.h"
+#include "../simd.h"
 
 #ifdef __SSE2__
 #include <emmintrin.h>
 #endif
-#include "../simd.h"
-
 #ifdef PCL_ECS_HAVE_AVX2_PATH
 #include <immintrin.h>
 #endif
@@ -89,6 +88,8 @@ void selectKernelPieces(const double* dist, std::size_t m, double inv_R, std::ui
   selectKernelPiecesPortable(dist, m, inv_R, inner, n_inner, outer, n_outer);
 }
 
+namespace
+{
 void weightedPlaneSumPortable(const CandidatePlanes::Terms* terms, const std::uint32_t* idx,
                               const double* g, std::size_t count, double* sum)
 {
@@ -111,11 +112,9 @@ void weightedPlaneSumPortable(const CandidatePlanes::Terms* terms, const std::ui
 }
 
 #ifdef PCL_ECS_HAVE_AVX2_PATH
-namespace
-{
-PCL_ECS_AVX2_TARGET void weightedPlaneSumAvx2(const CandidatePlanes::Terms* terms,
-                                                          const std::uint32_t* idx, const double* g,
-                                                          std::size_t count, double* sum)
+/// Three registers per plane; the even and the odd planes in two sets of running sums.
+PCL_ECS_AVX2_TARGET void weightedPlaneSumAvx2(const CandidatePlanes::Terms* terms, const std::uint32_t* idx,
+                                              const double* g, std::size_t count, double* sum)
 {
   __m256d e0 = _mm256_setzero_pd(), e1 = e0, e2 = e0, o0 = e0, o1 = e0, o2 = e0;
   auto add = [](__m256d& a0, __m256d& a1, __m256d& a2, const double* t, double weight)
@@ -137,29 +136,17 @@ PCL_ECS_AVX2_TARGET void weightedPlaneSumAvx2(const CandidatePlanes::Terms* term
   _mm256_storeu_pd(sum + 4, _mm256_add_pd(e1, o1));
   _mm256_storeu_pd(sum + 8, _mm256_add_pd(e2, o2));
 }
+#endif
 }  // namespace
-#endif
-
-bool weightedPlaneSumWide(const CandidatePlanes::Terms* terms, const std::uint32_t* idx,
-                          const double* g, std::size_t count, double* sum)
-{
-#ifdef PCL_ECS_HAVE_AVX2_PATH
-  if (useAvx2())
-  {
-    weightedPlaneSumAvx2(terms, idx, g, count, sum);
-    return true;
-  }
-#else
-  (void)terms, (void)idx, (void)g, (void)count, (void)sum;
-#endif
-  return false;
-}
 
 void weightedPlaneSum(const CandidatePlanes::Terms* terms, const std::uint32_t* idx, const double* g,
                       std::size_t count, double* sum)
 {
-  if (!weightedPlaneSumWide(terms, idx, g, count, sum))
-    weightedPlaneSumPortable(terms, idx, g, count, sum);
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+  if (useAvx2())
+    return weightedPlaneSumAvx2(terms, idx, g, count, sum);
+#endif
+  weightedPlaneSumPortable(terms, idx, g, count, sum);
 }
 
 }  // namespace detail
