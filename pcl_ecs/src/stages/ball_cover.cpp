@@ -24,8 +24,8 @@ namespace pcl_ecs
 namespace
 {
 /// out[i] = sqrt(d2[i]) in double, correctly rounded (the same bits in every build): two per
-/// instruction (SSE2), four in the AVX2 build (where the compiler vectorises the plain loop; it
-/// leaves it scalar for SSE2).
+/// instruction by SSE2 intrinsics (GCC leaves the plain loop scalar for SSE2), four in the AVX2
+/// build (where it vectorises the plain loop).
 void squareRootsPortable(const float* d2, std::size_t n, double* out)
 {
   std::size_t i = 0;
@@ -56,10 +56,7 @@ void squareRoots(const float* d2, std::size_t n, double* out)
 #endif
   squareRootsPortable(d2, n, out);
 }
-}  // namespace
 
-namespace
-{
 /// Candidates of one ball: the non-feature points of a radius search, grown on demand. A larger
 /// query appends only the shell it adds (points past the previous query's radius): those held
 /// keep their place, and the solver their planes.
@@ -86,8 +83,8 @@ public:
     const std::size_t before = candidates.size();
     // A point is within a query when its squared distance, as the search computes it in float,
     // is <= the float square of the radius: the points past held_r2_ are exactly the new ones.
-    // Distances first (vectorised), then the new non-feature points appended
-    // without a branch per point (in a grown query, old and new points alternate unpredictably).
+    // Distances first (vectorised), then the new non-feature points appended without a branch per
+    // point (in a grown query, old and new points alternate unpredictably).
     const std::size_t found = found_.size();
     distance_.resize(found);
     double* dist = distance_.data();
@@ -126,10 +123,7 @@ private:
   std::vector<float>& d2_;
   std::vector<double>& distance_;
 };
-}  // namespace
 
-namespace
-{
 /// E grows about like r² near the root, so a ball whose tolerance step 5 scaled by f has a radius
 /// about sqrt(f) times that of a ball at the base tolerance: radii divided by this are comparable
 /// across the tolerance classes (the running guess and each colour's start are kept at the base).

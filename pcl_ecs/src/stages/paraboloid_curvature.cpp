@@ -231,7 +231,7 @@ PCL_ECS_ALWAYS_INLINE void tiltedFitLanes(int rows, const double (*centre)[W], c
   }
   // Cholesky AᵀA = L Lᵀ, each pivot at least 1e-10 of the largest diagonal entry (as
   // normalEquations), then L y = Aᵀz, Lᵀ x = y, and H of the fitted graph (lanes innermost).
-  double c[5][5][W], y[5][W], x[5][W];
+  double c[5][5][W], y[5][W], x[5][W], largest[W];
   bool ok[W];
   {
     int e = 0;
@@ -242,11 +242,10 @@ PCL_ECS_ALWAYS_INLINE void tiltedFitLanes(int rows, const double (*centre)[W], c
   }
   for (int l = 0; l < W; ++l)
   {
-    double largest = 0.0;
+    largest[l] = 0.0;
     for (int i = 0; i < 5; ++i)
-      largest = std::max(largest, c[i][i][l]);
-    ok[l] = largest > 0.0 && used[l] >= 5 && scale[l] > 0.0;
-    m[0][l] = largest;  // (m is spent: keep the largest diagonal entry there)
+      largest[l] = std::max(largest[l], c[i][i][l]);
+    ok[l] = largest[l] > 0.0 && used[l] >= 5 && scale[l] > 0.0;
   }
   for (int j = 0; j < 5; ++j)
   {
@@ -255,7 +254,7 @@ PCL_ECS_ALWAYS_INLINE void tiltedFitLanes(int rows, const double (*centre)[W], c
       double d = c[j][j][l];
       for (int t = 0; t < j; ++t)
         d -= c[j][t][l] * c[j][t][l];
-      ok[l] = ok[l] && d >= 1e-10 * m[0][l];
+      ok[l] = ok[l] && d >= 1e-10 * largest[l];
       c[j][j][l] = std::sqrt(ok[l] ? d : 1.0);
     }
     for (int i = j + 1; i < 5; ++i)
@@ -351,6 +350,16 @@ double fitByRows(const Eigen::Vector3d& centre, const Eigen::Vector3d& normal,
   return ((1.0 + e * e) * ca - d * e * cb + (1.0 + d * d) * cc) / (g * std::sqrt(g) * scale);
 }
 
+/// Point i's table neighbours, in double, as the one-point fit takes them.
+void gatherHood(const LocalCloud& cloud, const NeighborhoodTable& table, std::size_t i,
+                std::vector<Eigen::Vector3d>& hood)
+{
+  const int* nb = table.neighbors(i);
+  hood.resize(static_cast<std::size_t>(table.k));
+  for (int k = 0; k < table.k; ++k)
+    hood[static_cast<std::size_t>(k)] = cloud[nb[k]].getVector3fMap().cast<double>();
+}
+
 /// Lane l of a batch from the point's centre, normal and neighbours.
 PCL_ECS_ALWAYS_INLINE void fillLane(int l, int rows, const pcl::PointXYZ& c, const Eigen::Vector3f& nrm,
                                     const int* nb, const LocalCloud& cloud, double (*centre)[4],
@@ -410,10 +419,7 @@ PCL_ECS_ALWAYS_INLINE void curvatureRangeBody(const LocalCloud& cloud, const Nor
         curvature[i] = h[l];
         continue;
       }
-      const int* nb = table.neighbors(i);
-      hood.resize(static_cast<std::size_t>(rows));
-      for (int k = 0; k < rows; ++k)
-        hood[static_cast<std::size_t>(k)] = cloud[nb[k]].getVector3fMap().cast<double>();
+      gatherHood(cloud, table, i, hood);
       curvature[i] = fitByRows(cloud[static_cast<std::ptrdiff_t>(i)].getVector3fMap().cast<double>(),
                                normals[i].cast<double>(), hood, ParaboloidFit::Tilted, false);
     }
@@ -472,7 +478,7 @@ void computeMeanCurvature(const LocalCloud& cloud, const NormalList& normals,
   const std::ptrdiff_t chunks = (n + kChunk - 1) / kChunk;
 #pragma omp parallel num_threads(threads)
   {
-    std::vector<Eigen::Vector3d> hood(static_cast<std::size_t>(table.k));
+    std::vector<Eigen::Vector3d> hood;  // one point's neighbours (gatherHood)
 #pragma omp for schedule(dynamic, 1)
     for (std::ptrdiff_t chunk = 0; chunk < chunks; ++chunk)
     {
@@ -493,9 +499,7 @@ void computeMeanCurvature(const LocalCloud& cloud, const NormalList& normals,
       {
         if (is_feature[static_cast<std::size_t>(i)])
           continue;
-        const int* nb = table.neighbors(static_cast<std::size_t>(i));
-        for (int j = 0; j < table.k; ++j)
-          hood[static_cast<std::size_t>(j)] = cloud[nb[j]].getVector3fMap().cast<double>();
+        gatherHood(cloud, table, static_cast<std::size_t>(i), hood);
         curvature[static_cast<std::size_t>(i)] =
             paraboloidMeanCurvature(cloud[i].getVector3fMap().cast<double>(),
                                     normals[static_cast<std::size_t>(i)].cast<double>(), hood, fit);
