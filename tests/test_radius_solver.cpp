@@ -107,6 +107,36 @@ TEST(RadiusSolver, WhenTheFloorFailsTheBallHoldsItsCentreAlone)
   EXPECT_EQ(sol.evaluations, 1);
 }
 
+// A start far above the root on a noisy surface, where E grows much more slowly than r^2: the
+// solve steps down along E's local slope instead of dropping to the floor, and still ends tight.
+TEST(RadiusSolver, AStartFarAboveTheRootStepsDownAlongTheSlope)
+{
+  Cloud::Ptr cloud = fibonacciSphere(20000, 1.0, 0.004, 7);
+  Fixture f(cloud);
+  const Eigen::Vector3d centre = (*f.cloud)[4321].getVector3fMap().cast<double>();
+  AllPoints src(*f.cloud, centre);
+  const double L = 2.0 * std::sqrt(3.0);
+  const double T = 2e-3;
+  std::vector<pcl_ecs::BallCandidate> sorted;
+  const auto near = pcl_ecs::solveRadius(f.samples(), centre, 0.005, 1.0, 0.0, T, L,
+                                         pcl_ecs::ErrorForm::Normalized, src, sorted);
+  ASSERT_GT(near.radius, 0.02);
+  int total = 0;
+  for (const double factor : {2.0, 3.0, 4.0})
+  {
+    const auto sol = pcl_ecs::solveRadius(f.samples(), centre, 0.005, 1.0, factor * near.radius, T, L,
+                                          pcl_ecs::ErrorForm::Normalized, src, sorted);
+    EXPECT_LE(sol.error, T);
+    const auto above = pcl_ecs::evaluateRadius(f.samples(), centre, src.all, sol.radius * 1.03, L,
+                                               pcl_ecs::ErrorForm::Normalized);
+    EXPECT_GT(above.error, T) << "start " << factor << " x the root";
+    total += sol.evaluations;
+  }
+  // Five a solve: start, two or three steps down, the probe that closes the bracket. (Dropping to
+  // the floor after the first step down, as the solver once did, took 21 here.)
+  EXPECT_LE(total, 15);
+}
+
 // The two error forms differ by exactly sqrt(sum of weights).
 TEST(RadiusSolver, PaperFormIsNormalizedTimesRootWeightSum)
 {

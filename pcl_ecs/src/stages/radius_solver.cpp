@@ -240,50 +240,69 @@ RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d&
     }
     return last_passed;
   };
-  // The radius where E would meet the tolerance if E ~ r^2 from the point (r, e).
-  auto predictFrom = [&](double r, double e) { return e > 0.0 ? r * std::sqrt(tolerance / e) : 2.0 * r; };
+  // The local exponent of E ~ r^p from the last two probes (the slope in log-log), or `fallback`
+  // until there are two far enough apart.
+  auto localExponent = [&](double fallback) {
+    if (prev_r > 0.0 && prev_e > 0.0 && last_e > 0.0 && std::abs(std::log(last_r / prev_r)) > 0.01)
+      return std::min(std::max(std::log(last_e / prev_e) / std::log(last_r / prev_r), 0.5), 4.0);
+    return fallback;
+  };
 
   const double start = std::min(std::max(guess, floor), cap);
   if (!probe(start))
   {
     if (!(start > floor))
       return sol;  // even the smallest ball is too coarse here: keep the centre alone
-    // Too large: try where the model puts the root (just below it), then the floor.
-    const double aim = std::max(floor, predictFrom(start, e_hi) * 0.99);
-    if (!(aim > floor && aim < start && probe(aim)) && !(hi > floor && probe(floor)))
+    // Too large: step down to just below where the model puts the root (E ~ r^p, p from the last
+    // two probes, 2 until there are two), at most three times, then the floor. (On a noisy scan E
+    // is far flatter than r^2 near the root; a probe at the floor would land far below it and
+    // leave a wide bracket to refine.)
+    for (int step = 0; lo < 0.0; ++step)
+    {
+      double aim = last_r * std::pow(tolerance / last_e, 1.0 / localExponent(2.0)) * 0.99;
+      if (step >= 3 || !(aim > floor))
+        aim = floor;
+      probe(aim);
+      if (aim == floor)
+        break;
+    }
+    if (lo < 0.0)
       return sol;
   }
   // Grow until E exceeds the tolerance or the cap is reached: aim just below the radius where E
-  // meets the tolerance, E ~ r^p with p from the last two probes (the local slope in log-log; 2
-  // until there are two), so that the next probe, just across it, closes the bracket.
+  // meets the tolerance, so that the next probe, just across it, closes the bracket.
   while (hi < 0.0 && lo < cap)
   {
-    double p = 2.0;
-    if (prev_r > 0.0 && prev_e > 0.0 && last_e > 0.0 && std::abs(std::log(last_r / prev_r)) > 0.01)
-      p = std::min(std::max(std::log(last_e / prev_e) / std::log(last_r / prev_r), 0.5), 4.0);
-    const double aim = e_lo > 0.0 ? lo * std::pow(tolerance / e_lo, 1.0 / p) * 0.995 : 2.0 * lo;
+    const double aim = e_lo > 0.0 ? lo * std::pow(tolerance / e_lo, 1.0 / localExponent(2.0)) * 0.995 : 2.0 * lo;
     probe(std::min(std::max(lo / kTight * 0.999, std::min(aim, 3.0 * lo)), cap));
   }
   // Refine between the last good and the first bad radius (to 2%).
+  bool tried_closing = false;  // the last probe was a closing one that did not close
   for (int it = 0; hi > 0.0 && lo < kTight * hi && it < 10; ++it)
   {
     double theta = 0.5;
     if (e_lo > 0.0 && e_hi > e_lo)
       theta = std::log(tolerance / e_lo) / std::log(e_hi / e_lo);
     const double predicted = lo * std::pow(hi / lo, std::min(std::max(theta, 0.0), 1.0));
-    double r;
     if (hi * kTight * kTight <= lo)
     {
       // Any radius in [kTight hi, lo / kTight] closes the bracket, whether it passes or fails.
       probe(std::min(std::max(predicted, kTight * hi * 1.001), lo / kTight * 0.999));
       continue;
     }
-    if (last_passed && predicted < lo / kTight)
-      r = lo / kTight * 0.999;  // the root is just above the pass: a fail here closes the bracket
-    else if (!last_passed && predicted > kTight * hi)
-      r = kTight * hi * 1.001;  // the root is just below the fail: a pass here closes it
-    else
-      r = predicted;
+    // When the model puts the root within 2% of the last probe, the probe 2% across closes the
+    // bracket if the model is right (and shrinks it by 2% if not: then the next probe is held
+    // inside the middle 80% of the bracket, so that the search never creeps).
+    const bool close_above = last_passed && predicted < lo / kTight;
+    const bool close_below = !last_passed && predicted > kTight * hi;
+    if (!tried_closing && (close_above || close_below))
+    {
+      tried_closing = true;
+      probe(close_above ? lo / kTight * 0.999 : kTight * hi * 1.001);
+      continue;
+    }
+    tried_closing = false;
+    const double r = close_above ? lo / kTight * 0.999 : close_below ? kTight * hi * 1.001 : predicted;
     const double ratio = std::log(r / lo) / std::log(hi / lo);
     probe(lo * std::pow(hi / lo, std::min(std::max(ratio, 0.1), 0.9)));
   }
