@@ -242,7 +242,12 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
     }
   };
   claim(c);
-  if (w.members.size() >= 3)
+  // The hull decides only for members nobody owns yet: when every other member is owned already
+  // (about a quarter of the balls on a scan, late in the cover), it changes nothing.
+  bool open_member = false;
+  for (const int m : w.members)
+    open_member |= owner[static_cast<std::size_t>(m)] < 0;
+  if (open_member && w.members.size() >= 3)
   {
     hullCoverage(nc, w.offsets, w.inside);
     for (std::size_t m = 0; m < w.members.size(); ++m)
