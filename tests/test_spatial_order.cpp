@@ -96,9 +96,12 @@ TEST(SpatialOrder, SortIsByCodeThenIdWhateverTheThreads)
   std::vector<int> ids(pos.size());
   for (std::size_t i = 0; i < ids.size(); ++i)
     ids[i] = static_cast<int>(ids.size() - 1 - i);  // reversed: the sort has work to do
+  // On the grid the count calls for (fewer bits than the codes have: points share cells).
+  const int bits = pcl_ecs::spatialOrderBits(pos.size());
+  ASSERT_LT(bits, 21);
   std::vector<std::pair<std::uint64_t, int>> expected;
   for (int id : ids)
-    expected.emplace_back(pcl_ecs::spatialCode(pos[static_cast<std::size_t>(id)], lo, hi), id);
+    expected.emplace_back(pcl_ecs::spatialCode(pos[static_cast<std::size_t>(id)], lo, hi) >> (3 * (21 - bits)), id);
   std::sort(expected.begin(), expected.end());
   auto position = [&](int id) { return pos[static_cast<std::size_t>(id)]; };
   for (int threads : {1, 2, 4})
@@ -111,4 +114,38 @@ TEST(SpatialOrder, SortIsByCodeThenIdWhateverTheThreads)
       wrong += sorted[i] != expected[i].second ? 1 : 0;
     EXPECT_EQ(wrong, 0u) << threads << " threads";
   }
+}
+
+// The Hilbert index on a coarser grid is the top of the index on the finest one: ordering by the
+// coarse code is ordering by the fine code with the points of one coarse cell tied.
+TEST(SpatialOrder, CoarseCodesAreTheTopBitsOfFineCodes)
+{
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 4.0);
+  const Eigen::Vector3d lo(-1, -1, -1), hi(4, 3, 2);
+  std::vector<Eigen::Vector3d> pts;
+  for (int i = 0; i < 4001; ++i)
+    pts.emplace_back(u(rng), u(rng), u(rng));
+  std::vector<std::uint64_t> fine(pts.size()), coarse(pts.size());
+  pcl_ecs::spatialCodes(pts.data(), pts.size(), lo, hi, fine.data());
+  for (int bits : {1, 2, 5, 12, 20, 21})
+  {
+    pcl_ecs::spatialCodes(pts.data(), pts.size(), lo, hi, coarse.data(), bits);
+    std::size_t wrong = 0;
+    for (std::size_t i = 0; i < pts.size(); ++i)
+      wrong += coarse[i] != fine[i] >> (3 * (21 - bits)) ? 1 : 0;
+    EXPECT_EQ(wrong, 0u) << bits << " bits";
+  }
+}
+
+// About 16 cells per point on a surface across the box (4^(b-2) >= count), 21 at most.
+TEST(SpatialOrder, GridBitsGrowWithTheCount)
+{
+  EXPECT_EQ(pcl_ecs::spatialOrderBits(0), 2);
+  EXPECT_EQ(pcl_ecs::spatialOrderBits(1), 2);
+  EXPECT_EQ(pcl_ecs::spatialOrderBits(2), 3);
+  EXPECT_EQ(pcl_ecs::spatialOrderBits(522674), 12);
+  EXPECT_EQ(pcl_ecs::spatialOrderBits(1u << 20), 12);
+  EXPECT_EQ(pcl_ecs::spatialOrderBits((1u << 20) + 1), 13);
+  EXPECT_EQ(pcl_ecs::spatialOrderBits(std::size_t{1} << 60), 21);
 }

@@ -12,7 +12,7 @@ namespace pcl_ecs
 
 namespace
 {
-constexpr int kBits = 21;           // per axis: 63 bits in all
+constexpr int kBits = 21;           // per axis at most: 63 bits in all
 constexpr int kLanes = 8;           // points encoded side by side
 constexpr double kTop = 2097151.0;  // 2^21 - 1
 
@@ -36,17 +36,18 @@ inline std::uint32_t cellOf(double x, double lo, double extent)
   return static_cast<std::uint32_t>(t * kTop);
 }
 
-/// Hilbert indices of kLanes grid points (X[axis][lane]), by J. Skilling's transpose algorithm
-/// ("Programming the Hilbert curve", AIP Conf. Proc. 707, 2004), written without branches so that
-/// the lanes run side by side in vector registers.
-void hilbertLanes(std::uint32_t (&X)[3][kLanes], std::uint64_t* codes)
+/// Hilbert indices of kLanes grid points (X[axis][lane], `bits` bits per axis), by J. Skilling's
+/// transpose algorithm ("Programming the Hilbert curve", AIP Conf. Proc. 707, 2004), written
+/// without branches so that the lanes run side by side in vector registers. The index on the grid
+/// of 2^b cells per axis is the top 3b bits of the index on the finer grid of 2^21 (X >> (21 - b)).
+void hilbertLanes(std::uint32_t (&X)[3][kLanes], int bits, std::uint64_t* codes)
 {
   std::uint32_t* x0 = X[0];
   std::uint32_t* x1 = X[1];
   std::uint32_t* x2 = X[2];
   // Undo the excess work of the inverse transform, from the top bit down; for each axis i: when
   // bit b of X[i] is set invert the low bits of X[0], else exchange the low bits of X[0] and X[i].
-  for (int b = kBits - 1; b > 0; --b)
+  for (int b = bits - 1; b > 0; --b)
   {
     const std::uint32_t low = (1u << b) - 1u;
     for (int j = 0; j < kLanes; ++j)
@@ -73,7 +74,7 @@ void hilbertLanes(std::uint32_t (&X)[3][kLanes], std::uint64_t* codes)
     x2[j] ^= x1[j];
   }
   std::uint32_t t[kLanes] = {};
-  for (int b = kBits - 1; b > 0; --b)
+  for (int b = bits - 1; b > 0; --b)
     for (int j = 0; j < kLanes; ++j)
       t[j] ^= ((1u << b) - 1u) & (0u - ((x2[j] >> b) & 1u));
   // The transposed index, interleaved: bit b of X[0], X[1], X[2], most significant first.
@@ -81,20 +82,20 @@ void hilbertLanes(std::uint32_t (&X)[3][kLanes], std::uint64_t* codes)
     codes[j] = (spread(x0[j] ^ t[j]) << 2) | (spread(x1[j] ^ t[j]) << 1) | spread(x2[j] ^ t[j]);
 }
 
-/// Codes of points [first, first + count) (count <= kLanes), read through `at(i)`.
+/// Codes of points [first, first + count) (count <= kLanes), read through `at(i)`, `bits` per axis.
 template <typename At>
 void encodeBatch(const At& at, std::size_t first, std::size_t count, const Eigen::Vector3d& lo,
-                 double extent, std::uint64_t* out)
+                 double extent, int bits, std::uint64_t* out)
 {
   std::uint32_t X[3][kLanes] = {};
   for (std::size_t j = 0; j < count; ++j)
   {
     const Eigen::Vector3d p = at(first + j);
     for (int a = 0; a < 3; ++a)
-      X[a][j] = cellOf(p(a), lo(a), extent);
+      X[a][j] = cellOf(p(a), lo(a), extent) >> (kBits - bits);
   }
   std::uint64_t codes[kLanes];
-  hilbertLanes(X, codes);
+  hilbertLanes(X, bits, codes);
   std::copy(codes, codes + count, out);
 }
 }  // namespace
@@ -107,12 +108,21 @@ std::uint64_t spatialCode(const Eigen::Vector3d& p, const Eigen::Vector3d& lo, c
 }
 
 void spatialCodes(const Eigen::Vector3d* points, std::size_t count, const Eigen::Vector3d& lo,
-                  const Eigen::Vector3d& hi, std::uint64_t* codes)
+                  const Eigen::Vector3d& hi, std::uint64_t* codes, int bits)
 {
+  bits = std::min(std::max(bits, 1), kBits);
   const double extent = (hi - lo).maxCoeff();
   auto at = [points](std::size_t i) { return points[i]; };
   for (std::size_t first = 0; first < count; first += kLanes)
-    encodeBatch(at, first, std::min<std::size_t>(kLanes, count - first), lo, extent, codes + first);
+    encodeBatch(at, first, std::min<std::size_t>(kLanes, count - first), lo, extent, bits, codes + first);
+}
+
+int spatialOrderBits(std::size_t count)
+{
+  int bits = 2;
+  while (bits < kBits && (std::size_t{1} << (2 * (bits - 2))) < count)
+    ++bits;
+  return bits;
 }
 
 void sortBySpatialCode(std::vector<int>& ids, const std::function<Eigen::Vector3d(int)>& position,
@@ -127,6 +137,7 @@ void sortBySpatialCode(std::vector<int>& ids, const std::function<Eigen::Vector3
   // Filled (and its pages first touched) by the parallel loop, not zeroed first.
   std::vector<Keyed, UninitialisedAllocator<Keyed>> keyed(ids.size());
   const double extent = (hi - lo).maxCoeff();
+  const int bits = spatialOrderBits(ids.size());
   auto at = [&](std::size_t i) { return position(ids[i]); };
   const auto batches = static_cast<std::ptrdiff_t>((ids.size() + kLanes - 1) / kLanes);
 #pragma omp parallel for schedule(static) num_threads(threads)
@@ -135,7 +146,7 @@ void sortBySpatialCode(std::vector<int>& ids, const std::function<Eigen::Vector3
     const std::size_t first = static_cast<std::size_t>(b) * kLanes;
     const std::size_t count = std::min<std::size_t>(kLanes, ids.size() - first);
     std::uint64_t codes[kLanes];
-    encodeBatch(at, first, count, lo, extent, codes);
+    encodeBatch(at, first, count, lo, extent, bits, codes);
     for (std::size_t j = 0; j < count; ++j)
       keyed[first + j] = {codes[j], ids[first + j]};
   }

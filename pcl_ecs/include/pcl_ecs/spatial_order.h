@@ -22,13 +22,20 @@ namespace pcl_ecs
 std::uint64_t spatialCode(const Eigen::Vector3d& p, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
 
 /** \brief spatialCode() of `count` points at once (the same values; several lanes per
- * instruction). */
+ * instruction); with `bits` < 21, the index on the coarser grid of 2^bits cells per axis, which is
+ * spatialCode() >> 3 (21 - bits) (the Hilbert curve refines itself cell by cell). */
 void spatialCodes(const Eigen::Vector3d* points, std::size_t count, const Eigen::Vector3d& lo,
-                  const Eigen::Vector3d& hi, std::uint64_t* codes);
+                  const Eigen::Vector3d& hi, std::uint64_t* codes, int bits = 21);
 
-/** \brief Sort `ids` by the spatialCode() of position(id) in [lo, hi], ties by id: deterministic
- * (the same order for any `threads`, the number of threads used; `position` is called from
- * several at once). */
+/** \brief Bits per axis of the grid sortBySpatialCode() orders `count` points on: 4^(b - 2) >= count
+ * (about 16 cells per point on a surface filling the box's face, so that few points share a cell),
+ * at most 21. */
+int spatialOrderBits(std::size_t count);
+
+/** \brief Sort `ids` by the Hilbert index of position(id) in [lo, hi] on the grid of
+ * spatialOrderBits(ids.size()) bits per axis (spatialCode() >> 3 (21 - b): coarser codes need
+ * fewer steps to encode and to sort), ties by id: deterministic (the same order for any `threads`,
+ * the number of threads used; `position` is called from several at once). */
 void sortBySpatialCode(std::vector<int>& ids, const std::function<Eigen::Vector3d(int)>& position,
                        const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int threads = 1);
 

@@ -907,7 +907,9 @@ TileData Runner::loadTile(int t) const
     }
     {
       std::vector<std::uint64_t> codes(n);
-      spatialCodes(pos.data(), n, plan_.lo, plan_.hi, codes.data());  // several points per instruction
+      // On the grid the in-memory filter orders the whole cloud on: one tile gives its run exactly.
+      spatialCodes(pos.data(), n, plan_.lo, plan_.hi, codes.data(),
+                   spatialOrderBits(static_cast<std::size_t>(plan_.finite_points)));  // several points per instruction
       for (std::size_t i = 0; i < n; ++i)
         keys[i].code = codes[i];
     }
