@@ -133,6 +133,72 @@ PCL_ECS_AVX2_TARGET int scanRunAvx2(const float* x, const float* y, const float*
 }
 #endif
 
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+/// radiusSearch's walk with a node's eight child boxes measured in one instruction (childDistances'
+/// operations in its order: the same bits), the children within reach taken from a bit mask in the
+/// portable walk's order, and each run scanned eight points at a time: the same results in the
+/// same order. Appends to indices / sqr_distances.
+PCL_ECS_AVX2_TARGET void radiusWalkAvx2(const std::vector<std::vector<Node>>& levels, const float* x,
+                                        const float* y, const float* z, const int* ids, float px,
+                                        float py, float pz, float r2, pcl::Indices& indices,
+                                        std::vector<float>& sqr_distances)
+{
+  const __m256 q[3] = {_mm256_set1_ps(px), _mm256_set1_ps(py), _mm256_set1_ps(pz)};
+  const __m256 zero = _mm256_setzero_ps(), limit = _mm256_set1_ps(r2), empty = _mm256_set1_ps(kEmpty);
+  struct Step
+  {
+    int level, node;
+  };
+  Step stack[kStack];
+  int top = 0;
+  stack[top++] = {static_cast<int>(levels.size()) - 1, 0};
+  // Scanned into buffers of this thread (kept at their largest size: no zeroing), copied out once.
+  thread_local std::vector<int> found_i;
+  thread_local std::vector<float> found_d;
+  std::size_t found = 0;
+  while (top > 0)
+  {
+    const Step v = stack[--top];
+    const Node& n = levels[static_cast<std::size_t>(v.level)][static_cast<std::size_t>(v.node)];
+    __m256 sum = zero;
+    for (int a = 0; a < 3; ++a)
+    {
+      const __m256 below = _mm256_sub_ps(_mm256_loadu_ps(n.lo[a]), q[a]);
+      const __m256 above = _mm256_sub_ps(q[a], _mm256_loadu_ps(n.hi[a]));
+      const __m256 gap = _mm256_max_ps(_mm256_max_ps(below, above), zero);
+      sum = _mm256_add_ps(sum, _mm256_mul_ps(gap, gap));
+    }
+    unsigned mask = static_cast<unsigned>(_mm256_movemask_ps(
+        _mm256_and_ps(_mm256_cmp_ps(sum, limit, _CMP_LE_OQ), _mm256_cmp_ps(sum, empty, _CMP_LT_OQ))));
+    if (v.level > 0)
+    {
+      // Children pushed last to first: they come out (and their points) in tree order.
+      while (mask != 0)
+      {
+        const int c = 31 - __builtin_clz(mask);
+        mask &= ~(1u << c);
+        stack[top++] = {v.level - 1, v.node * kWide + c};
+      }
+      continue;
+    }
+    for (; mask != 0; mask &= mask - 1)
+    {
+      const int c = __builtin_ctz(mask);
+      const std::size_t b = (static_cast<std::size_t>(v.node) * kWide + static_cast<std::size_t>(c)) * BoxTreeSearch::kRun;
+      if (found_i.size() < found + BoxTreeSearch::kRun)
+      {
+        found_i.resize(2 * (found + BoxTreeSearch::kRun));
+        found_d.resize(found_i.size());
+      }
+      found += static_cast<std::size_t>(scanRunAvx2(x + b, y + b, z + b, ids + b, px, py, pz, r2,
+                                                     found_i.data() + found, found_d.data() + found));
+    }
+  }
+  indices.insert(indices.end(), found_i.data(), found_i.data() + found);
+  sqr_distances.insert(sqr_distances.end(), found_d.data(), found_d.data() + found);
+}
+#endif
+
 int scanRun(bool wide, const float* x, const float* y, const float* z, const int* ids, float px,
             float py, float pz, float r2, int* out_i, float* out_d)
 {
@@ -279,9 +345,15 @@ int BoxTreeSearch::radiusSearch(const pcl::PointXYZ& point, double radius, pcl::
   const float r2 = static_cast<float>(radius * radius);
   const float px = point.x, py = point.y, pz = point.z;
   const bool wide = detail::useAvx2();
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+  if (wide)
+    radiusWalkAvx2(t.levels, t.x.data(), t.y.data(), t.z.data(), t.to_cloud.data(), px, py, pz, r2,
+                   k_indices, k_sqr_distances);
+#endif
   Visit stack[kStack];
   int top = 0;
-  stack[top++] = {static_cast<int>(t.levels.size()) - 1, 0, 0.f};
+  if (!wide)
+    stack[top++] = {static_cast<int>(t.levels.size()) - 1, 0, 0.f};
   float d[kWide];
   while (top > 0)
   {
