@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <cstddef>
 #include <limits>
 
@@ -143,6 +144,86 @@ bool normalEquations(const double (*a)[256], const double* z, int rows, double* 
 /// Rows of a neighbourhood that the batched fit takes (K up to this; larger K fit one by one).
 constexpr int kBatchRows = 64;
 
+/// Lanes per batch of the fit, and their vector (GCC's vector extension: four doubles, two SSE2
+/// registers in the portable build, one AVX2 register in the other).
+constexpr int kLanes4 = 4;
+typedef double Lanes4 __attribute__((vector_size(4 * sizeof(double))));
+typedef long long Mask4 __attribute__((vector_size(4 * sizeof(long long))));
+
+// (Vectors pass by reference: a 32-byte vector returned by value would change the ABI of the SSE2 build.)
+PCL_ECS_ALWAYS_INLINE void load4(Lanes4& v, const double* a)
+{
+  std::memcpy(&v, a, sizeof v);
+}
+
+PCL_ECS_ALWAYS_INLINE void store4(double* a, Lanes4 v)
+{
+  std::memcpy(a, &v, sizeof v);
+}
+
+/// The row sums of tiltedFitLanes for four lanes as vectors: the same operations in the same
+/// order as its one-lane loop (the selects are element-wise), so the same bits; written out
+/// because GCC turns the selects of the unrolled lanes into branches and runs them one by one.
+PCL_ECS_ALWAYS_INLINE void rowSumsLanes4(int rows, const double (*centre)[kLanes4], const double (*normal)[kLanes4],
+                                         const double (*p)[3][kLanes4], const double* inv_scale,
+                                         const double (*u)[kLanes4], const double (*v)[kLanes4],
+                                         double (*m)[kLanes4], double (*r)[kLanes4], int* used)
+{
+  Lanes4 c0, c1, c2, n0, n1, n2, u0, u1, u2, v0, v1, v2, is;
+  load4(c0, centre[0]);
+  load4(c1, centre[1]);
+  load4(c2, centre[2]);
+  load4(n0, normal[0]);
+  load4(n1, normal[1]);
+  load4(n2, normal[2]);
+  load4(u0, u[0]);
+  load4(u1, u[1]);
+  load4(u2, u[2]);
+  load4(v0, v[0]);
+  load4(v1, v[1]);
+  load4(v2, v[2]);
+  load4(is, inv_scale);
+  const Lanes4 zero = {0.0, 0.0, 0.0, 0.0};
+  Lanes4 mm[15], rr[5];
+  for (Lanes4& e : mm)
+    e = zero;
+  for (Lanes4& e : rr)
+    e = zero;
+  Mask4 count = {0, 0, 0, 0};
+  for (int k = 0; k < rows; ++k)
+  {
+    Lanes4 p0, p1, p2;
+    load4(p0, p[k][0]);
+    load4(p1, p[k][1]);
+    load4(p2, p[k][2]);
+    const Lanes4 q0 = (p0 - c0) * is;
+    const Lanes4 q1 = (p1 - c1) * is;
+    const Lanes4 q2 = (p2 - c2) * is;
+    Lanes4 x = q0 * u0 + q1 * u1 + q2 * u2;
+    Lanes4 y = q0 * v0 + q1 * v1 + q2 * v2;
+    const Lanes4 zz = q0 * n0 + q1 * n1 + q2 * n2;
+    const Mask4 keep = x * x + y * y > zero;  // all ones where kept
+    x = keep ? x : zero;
+    y = keep ? y : zero;
+    const Lanes4 z = keep ? zz : zero;
+    count -= keep;
+    const Lanes4 a[5] = {x * x, x * y, y * y, x, y};
+    int e = 0;
+    for (int i = 0; i < 5; ++i)
+    {
+      for (int j = 0; j <= i; ++j, ++e)
+        mm[e] += a[i] * a[j];
+      rr[i] += a[i] * z;
+    }
+  }
+  for (int e = 0; e < 15; ++e)
+    store4(m[e], mm[e]);
+  for (int e = 0; e < 5; ++e)
+    store4(r[e], rr[e]);
+  for (int l = 0; l < kLanes4; ++l)
+    used[l] = static_cast<int>(count[l]);
+}
+
 /// The tilted fit (eq. 8-12 with the slope terms) of W neighbourhoods at once, lane l being one
 /// point: the same operations for every lane (selects instead of branches), so the compiler runs
 /// the lanes side by side in vector registers, and one lane alone (W = 1) gives the same bits.
@@ -189,44 +270,49 @@ PCL_ECS_ALWAYS_INLINE void tiltedFitLanes(int rows, const double (*centre)[W], c
   // not counted.
   double m[15][W], r[5][W];
   int used[W];
-  for (int l = 0; l < W; ++l)
+  if constexpr (W == kLanes4)
+    rowSumsLanes4(rows, centre, normal, p, inv_scale, u, v, m, r, used);
+  else
   {
-    for (int e = 0; e < 15; ++e)
-      m[e][l] = 0.0;
-    for (int e = 0; e < 5; ++e)
-      r[e][l] = 0.0;
-    used[l] = 0;
-  }
-  for (int k = 0; k < rows; ++k)
-  {
-    double a[5][W], z[W];  // the row of each lane (l innermost everywhere: the lanes vectorise)
     for (int l = 0; l < W; ++l)
     {
-      const double q0 = (p[k][0][l] - centre[0][l]) * inv_scale[l];
-      const double q1 = (p[k][1][l] - centre[1][l]) * inv_scale[l];
-      const double q2 = (p[k][2][l] - centre[2][l]) * inv_scale[l];
-      double x = q0 * u[0][l] + q1 * u[1][l] + q2 * u[2][l];
-      double y = q0 * v[0][l] + q1 * v[1][l] + q2 * v[2][l];
-      const double zz = q0 * normal[0][l] + q1 * normal[1][l] + q2 * normal[2][l];
-      const bool keep = x * x + y * y > 0.0;
-      x = keep ? x : 0.0;
-      y = keep ? y : 0.0;
-      z[l] = keep ? zz : 0.0;
-      used[l] += keep ? 1 : 0;
-      a[0][l] = x * x;
-      a[1][l] = x * y;
-      a[2][l] = y * y;
-      a[3][l] = x;
-      a[4][l] = y;
+      for (int e = 0; e < 15; ++e)
+        m[e][l] = 0.0;
+      for (int e = 0; e < 5; ++e)
+        r[e][l] = 0.0;
+      used[l] = 0;
     }
-    int e = 0;
-    for (int i = 0; i < 5; ++i)
+    for (int k = 0; k < rows; ++k)
     {
-      for (int j = 0; j <= i; ++j, ++e)
-        for (int l = 0; l < W; ++l)
-          m[e][l] += a[i][l] * a[j][l];
+      double a[5][W], z[W];  // the row of each lane (l innermost everywhere: the lanes vectorise)
       for (int l = 0; l < W; ++l)
-        r[i][l] += a[i][l] * z[l];
+      {
+        const double q0 = (p[k][0][l] - centre[0][l]) * inv_scale[l];
+        const double q1 = (p[k][1][l] - centre[1][l]) * inv_scale[l];
+        const double q2 = (p[k][2][l] - centre[2][l]) * inv_scale[l];
+        double x = q0 * u[0][l] + q1 * u[1][l] + q2 * u[2][l];
+        double y = q0 * v[0][l] + q1 * v[1][l] + q2 * v[2][l];
+        const double zz = q0 * normal[0][l] + q1 * normal[1][l] + q2 * normal[2][l];
+        const bool keep = x * x + y * y > 0.0;
+        x = keep ? x : 0.0;
+        y = keep ? y : 0.0;
+        z[l] = keep ? zz : 0.0;
+        used[l] += keep ? 1 : 0;
+        a[0][l] = x * x;
+        a[1][l] = x * y;
+        a[2][l] = y * y;
+        a[3][l] = x;
+        a[4][l] = y;
+      }
+      int e = 0;
+      for (int i = 0; i < 5; ++i)
+      {
+        for (int j = 0; j <= i; ++j, ++e)
+          for (int l = 0; l < W; ++l)
+            m[e][l] += a[i][l] * a[j][l];
+        for (int l = 0; l < W; ++l)
+          r[i][l] += a[i][l] * z[l];
+      }
     }
   }
   // Cholesky AᵀA = L Lᵀ, each pivot at least 1e-10 of the largest diagonal entry (as
@@ -388,7 +474,7 @@ PCL_ECS_ALWAYS_INLINE void curvatureRangeBody(const LocalCloud& cloud, const Nor
                                               std::ptrdiff_t begin, std::ptrdiff_t end,
                                               std::vector<double>& curvature)
 {
-  constexpr int W = 4;
+  constexpr int W = kLanes4;
   const int rows = table.k;
   double centre[3][W], normal[3][W], p[kBatchRows][3][W], h[W];
   bool solved[W];
