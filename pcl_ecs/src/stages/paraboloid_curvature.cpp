@@ -224,6 +224,72 @@ PCL_ECS_ALWAYS_INLINE void rowSumsLanes4(int rows, const double (*centre)[kLanes
     used[l] = static_cast<int>(count[l]);
 }
 
+PCL_ECS_ALWAYS_INLINE void sqrt4(Lanes4& out, const Lanes4& v)
+{
+  for (int l = 0; l < kLanes4; ++l)
+    out[l] = std::sqrt(v[l]);
+}
+
+/// The Cholesky solve and H of tiltedFitLanes for four lanes as vectors (its one-lane code's
+/// operations in its order: the same bits).
+PCL_ECS_ALWAYS_INLINE void solveLanes4(const double (*m)[kLanes4], const double (*r)[kLanes4], const int* used,
+                                       const double* scale, double* h, bool* solved)
+{
+  const Lanes4 zero = {0.0, 0.0, 0.0, 0.0}, one = {1.0, 1.0, 1.0, 1.0};
+  Lanes4 c[5][5], y[5], x[5];
+  {
+    int e = 0;
+    for (int i = 0; i < 5; ++i)
+      for (int j = 0; j <= i; ++j, ++e)
+        load4(c[i][j], m[e]);
+  }
+  Lanes4 largest = zero, sc;
+  for (int i = 0; i < 5; ++i)
+    largest = largest < c[i][i] ? c[i][i] : largest;  // std::max(largest, c)
+  load4(sc, scale);
+  const Mask4 enough = {used[0] >= 5 ? -1 : 0, used[1] >= 5 ? -1 : 0, used[2] >= 5 ? -1 : 0,
+                        used[3] >= 5 ? -1 : 0};
+  Mask4 ok = (largest > zero) & enough & (sc > zero);
+  for (int j = 0; j < 5; ++j)
+  {
+    Lanes4 d = c[j][j];
+    for (int t = 0; t < j; ++t)
+      d -= c[j][t] * c[j][t];
+    ok &= d >= 1e-10 * largest;
+    sqrt4(c[j][j], ok ? d : one);
+    for (int i = j + 1; i < 5; ++i)
+    {
+      Lanes4 sum = c[i][j];
+      for (int t = 0; t < j; ++t)
+        sum -= c[i][t] * c[j][t];
+      c[i][j] = sum / c[j][j];
+    }
+  }
+  for (int i = 0; i < 5; ++i)
+  {
+    Lanes4 sum;
+    load4(sum, r[i]);
+    for (int t = 0; t < i; ++t)
+      sum -= c[i][t] * y[t];
+    y[i] = sum / c[i][i];
+  }
+  for (int i = 4; i >= 0; --i)
+  {
+    Lanes4 sum = y[i];
+    for (int t = i + 1; t < 5; ++t)
+      sum -= c[t][i] * x[t];
+    x[i] = sum / c[i][i];
+  }
+  const Lanes4 d = x[3], ee = x[4];
+  const Lanes4 g = 1.0 + d * d + ee * ee;
+  Lanes4 root_g;
+  sqrt4(root_g, g);
+  const Lanes4 hv = ((1.0 + ee * ee) * x[0] - d * ee * x[1] + (1.0 + d * d) * x[2]) / (g * root_g * sc);
+  store4(h, hv);
+  for (int l = 0; l < kLanes4; ++l)
+    solved[l] = ok[l] != 0;
+}
+
 /// The tilted fit (eq. 8-12 with the slope terms) of W neighbourhoods at once, lane l being one
 /// point: the same operations for every lane (selects instead of branches), so the compiler runs
 /// the lanes side by side in vector registers, and one lane alone (W = 1) gives the same bits.
@@ -317,6 +383,11 @@ PCL_ECS_ALWAYS_INLINE void tiltedFitLanes(int rows, const double (*centre)[W], c
   }
   // Cholesky AᵀA = L Lᵀ, each pivot at least 1e-10 of the largest diagonal entry (as
   // normalEquations), then L y = Aᵀz, Lᵀ x = y, and H of the fitted graph (lanes innermost).
+  if constexpr (W == kLanes4)
+  {
+    solveLanes4(m, r, used, scale, h, solved);
+    return;
+  }
   double c[5][5][W], y[5][W], x[5][W], largest[W];
   bool ok[W];
   {
