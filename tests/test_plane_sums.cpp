@@ -3,6 +3,8 @@
 #include "plane_sums.h"
 #include "simd.h"
 
+#include <pcl_ecs/stages/kernel.h>
+
 #include <gtest/gtest.h>
 
 #include <cstdint>
@@ -123,4 +125,46 @@ TEST(PlaneSums, KernelPiecesSplitLikeTheKernelWithAndWithoutAvx2)
       EXPECT_EQ(out, want_out) << m << " planes, AVX2 " << avx2;
     }
   }
+}
+
+// The kernel's weights of both pieces, with and without AVX2, bit for bit those of kernelInner /
+// kernelOuter one at a time (counts not a multiple of the lane count; the outer positions are
+// appended to the inner ones).
+TEST(PlaneSums, KernelWeightsAreThePiecesOneByOneWithAndWithoutAvx2)
+{
+  std::mt19937_64 rng(41);
+  std::uniform_real_distribution<double> d(0.0, 1.0);
+  std::vector<double> dist(203);
+  for (double& x : dist)
+    x = d(rng);
+  const double inv_R = 1.0 / 0.8;
+  std::vector<std::uint32_t> inner, outer;
+  for (std::uint32_t j = 0; j < dist.size(); ++j)
+  {
+    const double t = dist[j] * inv_R;
+    if (t <= 0.5)
+      inner.push_back(j);
+    else if (t <= 1.0)
+      outer.push_back(j);
+  }
+  ASSERT_GT(inner.size(), 20u);
+  ASSERT_GT(outer.size(), 20u);
+  std::vector<double> expected;
+  for (std::uint32_t j : inner)
+    expected.push_back(pcl_ecs::kernelInner(dist[j] * inv_R));
+  for (std::uint32_t j : outer)
+    expected.push_back(pcl_ecs::kernelOuter(dist[j] * inv_R));
+  for (bool avx2 : {false, true})
+  {
+    pcl_ecs::detail::allowAvx2(avx2);
+    std::vector<std::uint32_t> idx = inner;
+    idx.resize(inner.size() + outer.size());
+    std::vector<double> g(idx.size());
+    pcl_ecs::detail::kernelWeights(dist.data(), inv_R, idx.data(), inner.size(), outer.data(), outer.size(),
+                                   g.data());
+    EXPECT_EQ(0, std::memcmp(g.data(), expected.data(), g.size() * sizeof(double))) << "avx2 " << avx2;
+    for (std::size_t s = 0; s < outer.size(); ++s)
+      EXPECT_EQ(idx[inner.size() + s], outer[s]);
+  }
+  pcl_ecs::detail::allowAvx2(true);
 }

@@ -20,6 +20,12 @@ namespace detail
 void selectKernelPieces(const double* dist, std::size_t m, double inv_R, std::uint32_t* inner,
                         std::size_t& n_inner, std::uint32_t* outer, std::size_t& n_outer);
 
+/** \brief The kernel's weights of the selected planes: g[s] = kernelInner(dist[inner[s]] × inv_R)
+ * for s < n_inner, then g[n_inner + s] = kernelOuter(dist[outer[s]] × inv_R); the outer positions
+ * are appended to inner (which has room for both). */
+void kernelWeights(const double* dist, double inv_R, std::uint32_t* inner, std::size_t n_inner,
+                   const std::uint32_t* outer, std::size_t n_outer, double* g);
+
 /** \brief sum[k] = Σ_s g[s] × terms[idx[s]].t[k], k < 12. The planes go alternately into two
  * running sums (even s, odd s), added at the end: two independent chains of additions, so one
  * plane's sums do not wait on the previous plane's. */

@@ -1,5 +1,8 @@
 #include "../plane_sums.h"
+
 #include "../simd.h"
+
+#include <pcl_ecs/stages/kernel.h>
 
 #ifdef __SSE2__
 #include <emmintrin.h>
@@ -76,6 +79,38 @@ PCL_ECS_AVX2_TARGET void selectKernelPiecesAvx2(const double* dist, std::size_t 
   n_outer = no;
 }
 #endif
+
+/// kernelWeights: plain loops (the weights only add and multiply: see kernelInner), compiled
+/// for SSE2 and again for AVX2 (two or four lanes per instruction, the same bits).
+PCL_ECS_ALWAYS_INLINE void kernelWeightsBody(const double* dist, double inv_R, std::uint32_t* inner,
+                                             std::size_t n_inner, const std::uint32_t* outer,
+                                             std::size_t n_outer, double* g)
+{
+  for (std::size_t s = 0; s < n_inner; ++s)
+    g[s] = dist[inner[s]] * inv_R;
+  for (std::size_t s = 0; s < n_inner; ++s)
+    g[s] = kernelInner(g[s]);
+  for (std::size_t s = 0; s < n_outer; ++s)
+  {
+    g[n_inner + s] = kernelOuter(dist[outer[s]] * inv_R);
+    inner[n_inner + s] = outer[s];
+  }
+}
+
+void kernelWeightsPortable(const double* dist, double inv_R, std::uint32_t* inner, std::size_t n_inner,
+                           const std::uint32_t* outer, std::size_t n_outer, double* g)
+{
+  kernelWeightsBody(dist, inv_R, inner, n_inner, outer, n_outer, g);
+}
+
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+PCL_ECS_AVX2_TARGET void kernelWeightsAvx2(const double* dist, double inv_R, std::uint32_t* inner,
+                                           std::size_t n_inner, const std::uint32_t* outer,
+                                           std::size_t n_outer, double* g)
+{
+  kernelWeightsBody(dist, inv_R, inner, n_inner, outer, n_outer, g);
+}
+#endif
 }  // namespace
 
 void selectKernelPieces(const double* dist, std::size_t m, double inv_R, std::uint32_t* inner,
@@ -86,6 +121,16 @@ void selectKernelPieces(const double* dist, std::size_t m, double inv_R, std::ui
     return selectKernelPiecesAvx2(dist, m, inv_R, inner, n_inner, outer, n_outer);
 #endif
   selectKernelPiecesPortable(dist, m, inv_R, inner, n_inner, outer, n_outer);
+}
+
+void kernelWeights(const double* dist, double inv_R, std::uint32_t* inner, std::size_t n_inner,
+                   const std::uint32_t* outer, std::size_t n_outer, double* g)
+{
+#ifdef PCL_ECS_HAVE_AVX2_PATH
+  if (useAvx2())
+    return kernelWeightsAvx2(dist, inv_R, inner, n_inner, outer, n_outer, g);
+#endif
+  kernelWeightsPortable(dist, inv_R, inner, n_inner, outer, n_outer, g);
 }
 
 namespace

@@ -152,13 +152,7 @@ RadiusEvaluation evaluateRadius(const CandidatePlanes& planes, double r, double 
   // The weights, then the weighted sums over both pieces (inner planes first, then outer).
   thread_local std::vector<double> g;
   g.resize(n_inner + n_outer);
-  for (std::size_t s = 0; s < n_inner; ++s)
-    g[s] = kernelInner(dist[inner[s]] * inv_R);
-  for (std::size_t s = 0; s < n_outer; ++s)
-  {
-    g[n_inner + s] = kernelOuter(dist[outer[s]] * inv_R);
-    inner[n_inner + s] = outer[s];
-  }
+  detail::kernelWeights(dist, inv_R, inner.data(), n_inner, outer.data(), n_outer, g.data());
   double sum[12];
   detail::weightedPlaneSum(planes.terms.data(), inner.data(), g.data(), n_inner + n_outer, sum);
   Quadric q;
