@@ -1,5 +1,7 @@
 #include "../plane_sums.h"
 
+#include <algorithm>
+
 #include "../simd.h"
 
 #include <pcl_ecs/stages/kernel.h>
@@ -86,15 +88,18 @@ PCL_ECS_ALWAYS_INLINE void kernelWeightsBody(const double* dist, double inv_R, s
                                              std::size_t n_inner, const std::uint32_t* outer,
                                              std::size_t n_outer, double* g)
 {
+  // The ratios gathered first, then each piece's weights in a loop of their own (no gather, no
+  // call: they vectorise).
+  double* g_outer = g + n_inner;
   for (std::size_t s = 0; s < n_inner; ++s)
     g[s] = dist[inner[s]] * inv_R;
+  for (std::size_t s = 0; s < n_outer; ++s)
+    g_outer[s] = dist[outer[s]] * inv_R;
   for (std::size_t s = 0; s < n_inner; ++s)
     g[s] = kernelInner(g[s]);
   for (std::size_t s = 0; s < n_outer; ++s)
-  {
-    g[n_inner + s] = kernelOuter(dist[outer[s]] * inv_R);
-    inner[n_inner + s] = outer[s];
-  }
+    g_outer[s] = kernelOuter(g_outer[s]);
+  std::copy(outer, outer + n_outer, inner + n_inner);
 }
 
 void kernelWeightsPortable(const double* dist, double inv_R, std::uint32_t* inner, std::size_t n_inner,
