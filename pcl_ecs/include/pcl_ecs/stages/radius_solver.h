@@ -23,6 +23,9 @@ namespace pcl_ecs
 /** \brief A candidate member of a ball: its distance to the centre (not squared) and index. */
 struct BallCandidate
 {
+  /// Left uninitialised (a candidate list is resized and then written over, query after query).
+  BallCandidate() {}
+  BallCandidate(double d, int i) : distance(d), index(i) {}
   double distance;
   int index;
   bool operator<(const BallCandidate& o) const
