@@ -169,19 +169,14 @@ PCL_ECS_ALWAYS_INLINE void rowSumsLanes4(int rows, const double (*centre)[kLanes
                                          const double (*u)[kLanes4], const double (*v)[kLanes4],
                                          double (*m)[kLanes4], double (*r)[kLanes4], int* used)
 {
-  Lanes4 c0, c1, c2, n0, n1, n2, u0, u1, u2, v0, v1, v2, is;
-  load4(c0, centre[0]);
-  load4(c1, centre[1]);
-  load4(c2, centre[2]);
-  load4(n0, normal[0]);
-  load4(n1, normal[1]);
-  load4(n2, normal[2]);
-  load4(u0, u[0]);
-  load4(u1, u[1]);
-  load4(u2, u[2]);
-  load4(v0, v[0]);
-  load4(v1, v[1]);
-  load4(v2, v[2]);
+  Lanes4 c[3], n[3], fu[3], fv[3], is;  // the centres, normals and frames by coordinate
+  for (int a = 0; a < 3; ++a)
+  {
+    load4(c[a], centre[a]);
+    load4(n[a], normal[a]);
+    load4(fu[a], u[a]);
+    load4(fv[a], v[a]);
+  }
   load4(is, inv_scale);
   const Lanes4 zero = {0.0, 0.0, 0.0, 0.0};
   Lanes4 mm[15], rr[5];
@@ -196,12 +191,12 @@ PCL_ECS_ALWAYS_INLINE void rowSumsLanes4(int rows, const double (*centre)[kLanes
     load4(p0, p[k][0]);
     load4(p1, p[k][1]);
     load4(p2, p[k][2]);
-    const Lanes4 q0 = (p0 - c0) * is;
-    const Lanes4 q1 = (p1 - c1) * is;
-    const Lanes4 q2 = (p2 - c2) * is;
-    Lanes4 x = q0 * u0 + q1 * u1 + q2 * u2;
-    Lanes4 y = q0 * v0 + q1 * v1 + q2 * v2;
-    const Lanes4 zz = q0 * n0 + q1 * n1 + q2 * n2;
+    const Lanes4 q0 = (p0 - c[0]) * is;
+    const Lanes4 q1 = (p1 - c[1]) * is;
+    const Lanes4 q2 = (p2 - c[2]) * is;
+    Lanes4 x = q0 * fu[0] + q1 * fu[1] + q2 * fu[2];
+    Lanes4 y = q0 * fv[0] + q1 * fv[1] + q2 * fv[2];
+    const Lanes4 zz = q0 * n[0] + q1 * n[1] + q2 * n[2];
     const Mask4 keep = x * x + y * y > zero;  // all ones where kept
     x = keep ? x : zero;
     y = keep ? y : zero;
