@@ -133,11 +133,46 @@ PCL_ECS_AVX2_TARGET int scanRunAvx2(const float* x, const float* y, const float*
 }
 #endif
 
+/// radiusSearch's walk: depth first, children in tree order, the points of each run within reach
+/// (squared distance <= r2) appended to indices / sqr_distances in run order.
+void radiusWalkPortable(const std::vector<std::vector<Node>>& levels, const float* x, const float* y,
+                        const float* z, const int* ids, float px, float py, float pz, float r2,
+                        pcl::Indices& indices, std::vector<float>& sqr_distances)
+{
+  Visit stack[kStack];
+  int top = 0;
+  stack[top++] = {static_cast<int>(levels.size()) - 1, 0, 0.f};
+  float d[kWide];
+  while (top > 0)
+  {
+    const Visit v = stack[--top];
+    childDistances(levels[static_cast<std::size_t>(v.level)][static_cast<std::size_t>(v.node)], px, py, pz, d);
+    if (v.level > 0)
+    {
+      // Children pushed last to first: they come out (and their points) in tree order.
+      for (int c = kWide; c-- > 0;)
+        if (d[c] <= r2 && d[c] < kEmpty)
+          stack[top++] = {v.level - 1, v.node * kWide + c, 0.f};
+      continue;
+    }
+    for (int c = 0; c < kWide; ++c)
+    {
+      if (!(d[c] <= r2 && d[c] < kEmpty))
+        continue;
+      const std::size_t b = (static_cast<std::size_t>(v.node) * kWide + static_cast<std::size_t>(c)) * BoxTreeSearch::kRun;
+      int in_i[BoxTreeSearch::kRun];
+      float in_d[BoxTreeSearch::kRun];
+      const int kept = scanRunPortable(x + b, y + b, z + b, ids + b, px, py, pz, r2, in_i, in_d);
+      indices.insert(indices.end(), in_i, in_i + kept);
+      sqr_distances.insert(sqr_distances.end(), in_d, in_d + kept);
+    }
+  }
+}
+
 #ifdef PCL_ECS_HAVE_AVX2_PATH
-/// radiusSearch's walk with a node's eight child boxes measured in one instruction (childDistances'
+/// radiusWalkPortable with a node's eight child boxes measured in one instruction (childDistances'
 /// operations in its order: the same bits), the children within reach taken from a bit mask in the
-/// portable walk's order, and each run scanned eight points at a time: the same results in the
-/// same order. Appends to indices / sqr_distances.
+/// same order, and each run scanned eight points at a time: the same results in the same order.
 PCL_ECS_AVX2_TARGET void radiusWalkAvx2(const std::vector<std::vector<Node>>& levels, const float* x,
                                         const float* y, const float* z, const int* ids, float px,
                                         float py, float pz, float r2, pcl::Indices& indices,
@@ -199,16 +234,6 @@ PCL_ECS_AVX2_TARGET void radiusWalkAvx2(const std::vector<std::vector<Node>>& le
 }
 #endif
 
-int scanRun(bool wide, const float* x, const float* y, const float* z, const int* ids, float px,
-            float py, float pz, float r2, int* out_i, float* out_d)
-{
-#ifdef PCL_ECS_HAVE_AVX2_PATH
-  if (wide)
-    return scanRunAvx2(x, y, z, ids, px, py, pz, r2, out_i, out_d);
-#endif
-  (void)wide;
-  return scanRunPortable(x, y, z, ids, px, py, pz, r2, out_i, out_d);
-}
 }  // namespace
 
 struct BoxTreeSearch::Impl
@@ -344,41 +369,14 @@ int BoxTreeSearch::radiusSearch(const pcl::PointXYZ& point, double radius, pcl::
     return 0;
   const float r2 = static_cast<float>(radius * radius);
   const float px = point.x, py = point.y, pz = point.z;
-  const bool wide = detail::useAvx2();
 #ifdef PCL_ECS_HAVE_AVX2_PATH
-  if (wide)
+  if (detail::useAvx2())
     radiusWalkAvx2(t.levels, t.x.data(), t.y.data(), t.z.data(), t.to_cloud.data(), px, py, pz, r2,
                    k_indices, k_sqr_distances);
+  else
 #endif
-  Visit stack[kStack];
-  int top = 0;
-  if (!wide)
-    stack[top++] = {static_cast<int>(t.levels.size()) - 1, 0, 0.f};
-  float d[kWide];
-  while (top > 0)
-  {
-    const Visit v = stack[--top];
-    childDistances(t.levels[static_cast<std::size_t>(v.level)][static_cast<std::size_t>(v.node)], px, py, pz, d);
-    if (v.level > 0)
-    {
-      // Children pushed last to first: they come out (and their points) in tree order.
-      for (int c = kWide; c-- > 0;)
-        if (d[c] <= r2 && d[c] < kEmpty)
-          stack[top++] = {v.level - 1, v.node * kWide + c, 0.f};
-      continue;
-    }
-    for (int c = 0; c < kWide; ++c)
-    {
-      if (!(d[c] <= r2 && d[c] < kEmpty))
-        continue;
-      const std::size_t b = (static_cast<std::size_t>(v.node) * kWide + static_cast<std::size_t>(c)) * kRun;
-      int in_i[kRun];
-      float in_d[kRun];
-      const int kept = scanRun(wide, &t.x[b], &t.y[b], &t.z[b], &t.to_cloud[b], px, py, pz, r2, in_i, in_d);
-      k_indices.insert(k_indices.end(), in_i, in_i + kept);
-      k_sqr_distances.insert(k_sqr_distances.end(), in_d, in_d + kept);
-    }
-  }
+    radiusWalkPortable(t.levels, t.x.data(), t.y.data(), t.z.data(), t.to_cloud.data(), px, py, pz, r2,
+                       k_indices, k_sqr_distances);
   if (sorted_results_ || max_nn > 0)
   {
     thread_local std::vector<std::uint64_t> keys;
