@@ -286,8 +286,9 @@ PCL_ECS_ALWAYS_INLINE void solveLanes4(const double (*m)[kLanes4], const double 
 }
 
 /// The tilted fit (eq. 8-12 with the slope terms) of W neighbourhoods at once, lane l being one
-/// point: the same operations for every lane (selects instead of branches), so the compiler runs
-/// the lanes side by side in vector registers, and one lane alone (W = 1) gives the same bits.
+/// point: the same operations for every lane (selects instead of branches), and one lane alone
+/// (W = 1) gives the same bits. Four lanes run as vectors (rowSumsLanes4, solveLanes4: the same
+/// operations written with GCC's vector extension, which left to itself ran them one by one).
 /// The normal equations are summed row after row (each of their 20 sums one chain, in row order).
 /// rows: the points per lane (<= kBatchRows); p[k][a][l]: coordinate a of lane l's k-th point.
 /// Out: h[l] the mean curvature, solved[l] false when the normal equations are too ill-conditioned
