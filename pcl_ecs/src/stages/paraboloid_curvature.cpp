@@ -1,4 +1,5 @@
 #include <pcl_ecs/stages/paraboloid_curvature.h>
+
 #include <pcl_ecs/stages/tangent_frame.h>
 
 #include "../simd.h"
@@ -161,9 +162,9 @@ PCL_ECS_ALWAYS_INLINE void store4(double* a, Lanes4 v)
   std::memcpy(a, &v, sizeof v);
 }
 
-/// The row sums of tiltedFitLanes for four lanes as vectors: the same operations in the same
-/// order as its one-lane loop (the selects are element-wise), so the same bits; written out
-/// because GCC turns the selects of the unrolled lanes into branches and runs them one by one.
+/// The row sums of tiltedFitLanes (AᵀA and Aᵀz, rows x², xy, y², x, y | z) for four lanes as
+/// vectors; a row at the centre itself (x = y = 0) adds nothing and is not counted. Written with
+/// vectors because GCC turns the selects of unrolled lanes into branches and runs them one by one.
 PCL_ECS_ALWAYS_INLINE void rowSumsLanes4(int rows, const double (*centre)[kLanes4], const double (*normal)[kLanes4],
                                          const double (*p)[3][kLanes4], const double* inv_scale,
                                          const double (*u)[kLanes4], const double (*v)[kLanes4],
@@ -225,8 +226,8 @@ PCL_ECS_ALWAYS_INLINE void sqrt4(Lanes4& out, const Lanes4& v)
     out[l] = std::sqrt(v[l]);
 }
 
-/// The Cholesky solve and H of tiltedFitLanes for four lanes as vectors (its one-lane code's
-/// operations in its order: the same bits).
+/// The Cholesky solve and H of tiltedFitLanes for four lanes as vectors (each pivot at least
+/// 1e-10 of the lane's largest diagonal entry, as normalEquations; a lane that fails is not solved).
 PCL_ECS_ALWAYS_INLINE void solveLanes4(const double (*m)[kLanes4], const double (*r)[kLanes4], const int* used,
                                        const double* scale, double* h, bool* solved)
 {
@@ -285,21 +286,22 @@ PCL_ECS_ALWAYS_INLINE void solveLanes4(const double (*m)[kLanes4], const double 
     solved[l] = ok[l] != 0;
 }
 
-/// The tilted fit (eq. 8-12 with the slope terms) of W neighbourhoods at once, lane l being one
-/// point: the same operations for every lane (selects instead of branches), and one lane alone
-/// (W = 1) gives the same bits. Four lanes run as vectors (rowSumsLanes4, solveLanes4: the same
-/// operations written with GCC's vector extension, which left to itself ran them one by one).
-/// The normal equations are summed row after row (each of their 20 sums one chain, in row order).
+/// The tilted fit (eq. 8-12 with the slope terms) of four neighbourhoods at once, lane l being one
+/// point: the same operations for every lane (element-wise selects instead of branches), so a
+/// lane's result does not depend on the others (a single point runs in all four). The row sums
+/// and the solve are written with GCC's vector extension (rowSumsLanes4, solveLanes4), which left
+/// to itself ran the unrolled lanes one by one. The normal equations are summed row after row
+/// (each of their 20 sums one chain, in row order).
 /// rows: the points per lane (<= kBatchRows); p[k][a][l]: coordinate a of lane l's k-th point.
 /// Out: h[l] the mean curvature, solved[l] false when the normal equations are too ill-conditioned
 /// for the lane (its h is then meaningless: the caller fits it by QR).
-template <int W>
-PCL_ECS_ALWAYS_INLINE void tiltedFitLanes(int rows, const double (*centre)[W], const double (*normal)[W],
-                                          const double (*p)[3][W], double* h, bool* solved)
+PCL_ECS_ALWAYS_INLINE void tiltedFitLanes(int rows, const double (*centre)[kLanes4],
+                                          const double (*normal)[kLanes4], const double (*p)[3][kLanes4],
+                                          double* h, bool* solved)
 {
   // The local frame (u, v, n): u = n × (x or y axis, whichever is less parallel to n), normalised.
-  double u[3][W], v[3][W];
-  for (int l = 0; l < W; ++l)
+  double u[3][kLanes4], v[3][kLanes4];
+  for (int l = 0; l < kLanes4; ++l)
   {
     const double n0 = normal[0][l], n1 = normal[1][l], n2 = normal[2][l];
     const bool use_x = std::abs(n0) < 0.9;
@@ -313,16 +315,16 @@ PCL_ECS_ALWAYS_INLINE void tiltedFitLanes(int rows, const double (*centre)[W], c
     v[2][l] = n0 * u[1][l] - n1 * u[0][l];
   }
   // Coordinates scaled by the neighbourhood size (the largest distance from the centre).
-  double inv_scale[W], scale[W];
-  for (int l = 0; l < W; ++l)
+  double inv_scale[kLanes4], scale[kLanes4];
+  for (int l = 0; l < kLanes4; ++l)
     scale[l] = 0.0;
   for (int k = 0; k < rows; ++k)
-    for (int l = 0; l < W; ++l)
+    for (int l = 0; l < kLanes4; ++l)
     {
       const double q0 = p[k][0][l] - centre[0][l], q1 = p[k][1][l] - centre[1][l], q2 = p[k][2][l] - centre[2][l];
       scale[l] = std::max(scale[l], q0 * q0 + q1 * q1 + q2 * q2);
     }
-  for (int l = 0; l < W; ++l)
+  for (int l = 0; l < kLanes4; ++l)
   {
     scale[l] = std::sqrt(scale[l]);
     inv_scale[l] = scale[l] > 0.0 ? 1.0 / scale[l] : 0.0;
@@ -330,119 +332,12 @@ PCL_ECS_ALWAYS_INLINE void tiltedFitLanes(int rows, const double (*centre)[W], c
   // AᵀA (lower triangle, row by row: m[0] = (0,0), m[1] = (1,0), m[2] = (1,1), ...) and Aᵀz over
   // the rows (x², xy, y², x, y | z); a row at the centre itself (x = y = 0) adds nothing and is
   // not counted.
-  double m[15][W], r[5][W];
-  int used[W];
-  if constexpr (W == kLanes4)
-    rowSumsLanes4(rows, centre, normal, p, inv_scale, u, v, m, r, used);
-  else
-  {
-    for (int l = 0; l < W; ++l)
-    {
-      for (int e = 0; e < 15; ++e)
-        m[e][l] = 0.0;
-      for (int e = 0; e < 5; ++e)
-        r[e][l] = 0.0;
-      used[l] = 0;
-    }
-    for (int k = 0; k < rows; ++k)
-    {
-      double a[5][W], z[W];  // the row of each lane (l innermost everywhere: the lanes vectorise)
-      for (int l = 0; l < W; ++l)
-      {
-        const double q0 = (p[k][0][l] - centre[0][l]) * inv_scale[l];
-        const double q1 = (p[k][1][l] - centre[1][l]) * inv_scale[l];
-        const double q2 = (p[k][2][l] - centre[2][l]) * inv_scale[l];
-        double x = q0 * u[0][l] + q1 * u[1][l] + q2 * u[2][l];
-        double y = q0 * v[0][l] + q1 * v[1][l] + q2 * v[2][l];
-        const double zz = q0 * normal[0][l] + q1 * normal[1][l] + q2 * normal[2][l];
-        const bool keep = x * x + y * y > 0.0;
-        x = keep ? x : 0.0;
-        y = keep ? y : 0.0;
-        z[l] = keep ? zz : 0.0;
-        used[l] += keep ? 1 : 0;
-        a[0][l] = x * x;
-        a[1][l] = x * y;
-        a[2][l] = y * y;
-        a[3][l] = x;
-        a[4][l] = y;
-      }
-      int e = 0;
-      for (int i = 0; i < 5; ++i)
-      {
-        for (int j = 0; j <= i; ++j, ++e)
-          for (int l = 0; l < W; ++l)
-            m[e][l] += a[i][l] * a[j][l];
-        for (int l = 0; l < W; ++l)
-          r[i][l] += a[i][l] * z[l];
-      }
-    }
-  }
+  double m[15][kLanes4], r[5][kLanes4];
+  int used[kLanes4];
+  rowSumsLanes4(rows, centre, normal, p, inv_scale, u, v, m, r, used);
   // Cholesky AᵀA = L Lᵀ, each pivot at least 1e-10 of the largest diagonal entry (as
-  // normalEquations), then L y = Aᵀz, Lᵀ x = y, and H of the fitted graph (lanes innermost).
-  if constexpr (W == kLanes4)
-  {
-    solveLanes4(m, r, used, scale, h, solved);
-    return;
-  }
-  double c[5][5][W], y[5][W], x[5][W], largest[W];
-  bool ok[W];
-  {
-    int e = 0;
-    for (int i = 0; i < 5; ++i)
-      for (int j = 0; j <= i; ++j, ++e)
-        for (int l = 0; l < W; ++l)
-          c[i][j][l] = m[e][l];
-  }
-  for (int l = 0; l < W; ++l)
-  {
-    largest[l] = 0.0;
-    for (int i = 0; i < 5; ++i)
-      largest[l] = std::max(largest[l], c[i][i][l]);
-    ok[l] = largest[l] > 0.0 && used[l] >= 5 && scale[l] > 0.0;
-  }
-  for (int j = 0; j < 5; ++j)
-  {
-    for (int l = 0; l < W; ++l)
-    {
-      double d = c[j][j][l];
-      for (int t = 0; t < j; ++t)
-        d -= c[j][t][l] * c[j][t][l];
-      ok[l] = ok[l] && d >= 1e-10 * largest[l];
-      c[j][j][l] = std::sqrt(ok[l] ? d : 1.0);
-    }
-    for (int i = j + 1; i < 5; ++i)
-      for (int l = 0; l < W; ++l)
-      {
-        double sum = c[i][j][l];
-        for (int t = 0; t < j; ++t)
-          sum -= c[i][t][l] * c[j][t][l];
-        c[i][j][l] = sum / c[j][j][l];
-      }
-  }
-  for (int i = 0; i < 5; ++i)
-    for (int l = 0; l < W; ++l)
-    {
-      double sum = r[i][l];
-      for (int t = 0; t < i; ++t)
-        sum -= c[i][t][l] * y[t][l];
-      y[i][l] = sum / c[i][i][l];
-    }
-  for (int i = 4; i >= 0; --i)
-    for (int l = 0; l < W; ++l)
-    {
-      double sum = y[i][l];
-      for (int t = i + 1; t < 5; ++t)
-        sum -= c[t][i][l] * x[t][l];
-      x[i][l] = sum / c[i][i][l];
-    }
-  for (int l = 0; l < W; ++l)
-  {
-    const double d = x[3][l], ee = x[4][l];
-    const double g = 1.0 + d * d + ee * ee;
-    h[l] = ((1.0 + ee * ee) * x[0][l] - d * ee * x[1][l] + (1.0 + d * d) * x[2][l]) /
-           (g * std::sqrt(g) * scale[l]);
-    solved[l] = ok[l];
-  }
+  // normalEquations), then L y = Aᵀz, Lᵀ x = y, and H of the fitted graph.
+  solveLanes4(m, r, used, scale, h, solved);
 }
 }  // namespace
 
@@ -563,7 +458,7 @@ PCL_ECS_ALWAYS_INLINE void curvatureRangeBody(const LocalCloud& cloud, const Nor
     for (int l = filled; l < W; ++l)  // a last, partial batch: the spare lanes repeat lane 0
       fillLane(l, rows, cloud[lane_point[0]], normals[lane_point[0]], table.neighbors(lane_point[0]),
                cloud, centre, normal, p);
-    tiltedFitLanes<W>(rows, centre, normal, p, h, solved);
+    tiltedFitLanes(rows, centre, normal, p, h, solved);
     for (int l = 0; l < filled; ++l)
     {
       const std::size_t i = lane_point[l];
@@ -604,18 +499,21 @@ double paraboloidMeanCurvature(const Eigen::Vector3d& centre, const Eigen::Vecto
 {
   if (fit != ParaboloidFit::Tilted || points.size() > static_cast<std::size_t>(kBatchRows))
     return fitByRows(centre, normal, points, fit, true);
-  // One lane of the batched fit: the same bits as computeMeanCurvature gives this point.
+  // The batched fit with this point in all four lanes: the bits computeMeanCurvature gives it.
   const int rows = static_cast<int>(points.size());
-  double c[3][1] = {{centre.x()}, {centre.y()}, {centre.z()}};
-  double n[3][1] = {{normal.x()}, {normal.y()}, {normal.z()}};
-  double p[kBatchRows][3][1];
-  for (int k = 0; k < rows; ++k)
+  double c[3][kLanes4], n[3][kLanes4], p[kBatchRows][3][kLanes4];
+  for (int l = 0; l < kLanes4; ++l)
     for (int a = 0; a < 3; ++a)
-      p[k][a][0] = points[static_cast<std::size_t>(k)](a);
-  double h = 0.0;
-  bool solved = false;
-  tiltedFitLanes<1>(rows, c, n, p, &h, &solved);
-  return solved ? h : fitByRows(centre, normal, points, fit, false);
+    {
+      c[a][l] = centre(a);
+      n[a][l] = normal(a);
+      for (int k = 0; k < rows; ++k)
+        p[k][a][l] = points[static_cast<std::size_t>(k)](a);
+    }
+  double h[kLanes4];
+  bool solved[kLanes4];
+  tiltedFitLanes(rows, c, n, p, h, solved);
+  return solved[0] ? h[0] : fitByRows(centre, normal, points, fit, false);
 }
 
 void computeMeanCurvature(const LocalCloud& cloud, const NormalList& normals,
