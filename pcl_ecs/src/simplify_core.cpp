@@ -160,18 +160,8 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
   report("density", 0.0);
   computeLocalDensity(cloud, table, out.is_feature, tree, threads, out.density);
   s.mean_spacing = meanOverNonFeatures(out.density, out.is_feature);
-  {
-    // meanOverNonFeatures of the weights' square roots (the same sum in the same order).
-    double sum = 0.0;
-    std::size_t count = 0;
-    for (std::size_t i = 0; i < out.weights.size(); ++i)
-      if (!out.is_feature[i])
-      {
-        sum += std::sqrt(out.weights[i]);
-        ++count;
-      }
-    s.neighborhood_radius = count ? sum / static_cast<double>(count) : 0.0;
-  }
+  s.neighborhood_radius =
+      meanOverNonFeaturesOf(out.is_feature, [&](std::size_t i) { return std::sqrt(out.weights[i]); });
   s.timings.density = secondsSince(t);
 
   t = Clock::now();

@@ -54,15 +54,7 @@ void computeLocalDensity(const LocalCloud& cloud, const NeighborhoodTable& table
 double meanOverNonFeatures(const std::vector<double>& values,
                            const std::vector<std::uint8_t>& is_feature)
 {
-  double sum = 0.0;
-  std::size_t count = 0;
-  for (std::size_t i = 0; i < values.size(); ++i)
-    if (!is_feature[i])
-    {
-      sum += values[i];
-      ++count;
-    }
-  return count ? sum / static_cast<double>(count) : 0.0;
+  return meanOverNonFeaturesOf(is_feature, [&](std::size_t i) { return values[i]; });
 }
 
 }  // namespace pcl_ecs

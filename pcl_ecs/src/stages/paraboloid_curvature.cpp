@@ -1,5 +1,6 @@
 #include <pcl_ecs/stages/paraboloid_curvature.h>
 
+#include <pcl_ecs/stages/local_density.h>
 #include <pcl_ecs/stages/tangent_frame.h>
 
 #include "../simd.h"
@@ -563,15 +564,7 @@ void computeMeanCurvature(const LocalCloud& cloud, const NormalList& normals,
 double meanAbsCurvature(const std::vector<double>& curvature,
                         const std::vector<std::uint8_t>& is_feature)
 {
-  double sum = 0.0;
-  std::size_t count = 0;
-  for (std::size_t i = 0; i < curvature.size(); ++i)
-    if (!is_feature[i])
-    {
-      sum += std::abs(curvature[i]);
-      ++count;
-    }
-  return count ? sum / static_cast<double>(count) : 0.0;
+  return meanOverNonFeaturesOf(is_feature, [&](std::size_t i) { return std::abs(curvature[i]); });
 }
 
 }  // namespace pcl_ecs
