@@ -1,10 +1,10 @@
 #include "../plane_sums.h"
 
-#include <algorithm>
+#include <pcl_ecs/stages/kernel.h>
 
 #include "../simd.h"
 
-#include <pcl_ecs/stages/kernel.h>
+#include <algorithm>
 
 #ifdef __SSE2__
 #include <emmintrin.h>
