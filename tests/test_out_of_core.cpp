@@ -12,6 +12,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -467,31 +468,85 @@ TEST_F(OutOfCore, SameOutputForAnyThreadCount)
   EXPECT_GT(odd_stages, 0u) << "no cover colour with an odd number of tiles: the lone-tile path untested";
 }
 
-// Pass 1 is the only read of the input: emptying the file once the scan is over (the plan line)
-// changes nothing, whether the split opened it again or rewound the scan's reader.
-TEST_F(OutOfCore, ReadsTheInputOnce)
+/// Runs the scan file in `input` with `opt`, calling `at_line` on the first progress line that
+/// starts with `prefix`; returns whether it came.
+bool runCalling(const std::string& input, const std::string& output, const Parameters& params, StreamOptions opt,
+                const std::string& prefix, const std::function<void()>& at_line)
 {
-  Parameters params;
-  fs::copy_file(path("scan.pcd"), path("once.pcd"), fs::copy_options::overwrite_existing);
-  StreamOptions opt = tiled("scratch-once");
-  bool emptied = false;
+  bool called = false;
   opt.progress = [&](const std::string& line) {
-    if (!emptied && line.rfind("plan:", 0) == 0)
+    if (!called && line.rfind(prefix, 0) == 0)
     {
-      std::ofstream(path("once.pcd"), std::ios::binary | std::ios::trunc).flush();
-      emptied = true;
+      at_line();
+      called = true;
     }
   };
-  simplifyOutOfCore(path("once.pcd"), path("once_out.pcd"), params, opt);
-  ASSERT_TRUE(emptied);
+  simplifyOutOfCore(input, output, params, opt);
+  return called;
+}
+
+std::string fileBytes(const std::string& file)
+{
+  std::ifstream f(file, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(f)), {});
+}
+
+// An ASCII input is parsed once (pass 1 keeps a copy of its points for the split): emptying the
+// file once the scan is over (the plan line) changes nothing. Three threads: the split reads the
+// copy in three runs at once.
+TEST_F(OutOfCore, ParsesATextInputOnce)
+{
+  Parameters params;
+  params.threads = 3;
+  {
+    pcl::PCLPointCloud2 cloud;
+    ASSERT_EQ(pcl::io::loadPCDFile(path("scan.pcd"), cloud), 0);
+    ASSERT_EQ(pcl::io::savePCDFile(path("once.pcd"), cloud, Eigen::Vector4f::Zero(), Eigen::Quaternionf::Identity(),
+                                   false),
+              0);
+  }
+  fs::copy_file(path("once.pcd"), path("once_text.pcd"), fs::copy_options::overwrite_existing);
+  ASSERT_TRUE(runCalling(path("once.pcd"), path("once_out.pcd"), params, tiled("scratch-once"), "plan:", [&] {
+    std::ofstream(path("once.pcd"), std::ios::binary | std::ios::trunc).flush();
+  }));
   EXPECT_EQ(fs::file_size(path("once.pcd")), 0u);
   EXPECT_FALSE(fs::exists(path("scratch-once")));  // the copy of pass 1 went with the rest
-  StreamOptions ref = tiled("scratch-once-ref");
-  simplifyOutOfCore(path("scan.pcd"), path("once_ref.pcd"), params, ref);
-  std::ifstream a(path("once_out.pcd"), std::ios::binary), b(path("once_ref.pcd"), std::ios::binary);
-  const std::string sa((std::istreambuf_iterator<char>(a)), {}), sb((std::istreambuf_iterator<char>(b)), {});
-  EXPECT_EQ(sa, sb);
-  EXPECT_GT(sa.size(), 1000u);
+  simplifyOutOfCore(path("once_text.pcd"), path("once_ref.pcd"), params, tiled("scratch-once-ref"));
+  const std::string out = fileBytes(path("once_out.pcd"));
+  EXPECT_EQ(out, fileBytes(path("once_ref.pcd")));
+  EXPECT_GT(out.size(), 1000u);
+}
+
+// A binary input is read again by the split. Changed between the scan and the split, the run
+// stops with a message and leaves nothing behind; changed once the split is done, it is not read
+// again and the output is that of the file as it was.
+TEST_F(OutOfCore, ReadsABinaryInputTwiceAndNoticesAChangeBetween)
+{
+  Parameters params;
+  params.threads = 2;
+  fs::copy_file(path("scan.pcd"), path("twice.pcd"), fs::copy_options::overwrite_existing);
+  try
+  {
+    runCalling(path("twice.pcd"), path("twice_out.pcd"), params, tiled("scratch-twice"), "plan:", [&] {
+      std::ofstream(path("twice.pcd"), std::ios::binary | std::ios::app) << "more";
+    });
+    ADD_FAILURE() << "a changed input was split";
+  }
+  catch (const std::exception& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("changed while it was being read"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(path("twice_out.pcd")));
+  EXPECT_FALSE(fs::exists(path("scratch-twice")));
+
+  fs::copy_file(path("scan.pcd"), path("twice.pcd"), fs::copy_options::overwrite_existing);
+  ASSERT_TRUE(runCalling(path("twice.pcd"), path("twice_out.pcd"), params, tiled("scratch-twice"), "A (", [&] {
+    std::ofstream(path("twice.pcd"), std::ios::binary | std::ios::trunc).flush();
+  }));
+  simplifyOutOfCore(path("scan.pcd"), path("twice_ref.pcd"), params, tiled("scratch-twice-ref"));
+  const std::string out = fileBytes(path("twice_out.pcd"));
+  EXPECT_EQ(out, fileBytes(path("twice_ref.pcd")));
+  EXPECT_GT(out.size(), 1000u);
 }
 
 TEST_F(OutOfCore, RefusesWhatItCannotDo)

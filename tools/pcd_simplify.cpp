@@ -607,5 +607,6 @@ int runTool(int argc, char** argv)
 
 int main(int argc, char** argv)
 {
+  keepFreedMemory();
   return runToolMain("pcd_simplify", [&] { return runTool(argc, argv); });
 }

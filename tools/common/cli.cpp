@@ -7,6 +7,9 @@
 #include <sstream>
 
 #include <unistd.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 
 namespace pcl_ecs
 {
@@ -160,6 +163,16 @@ void ProgressLine::finish()
     std::fflush(stderr);
   }
   dirty_ = false;
+}
+
+void keepFreedMemory()
+{
+#ifdef __GLIBC__
+  // 32 MiB is the largest mmap threshold mallopt accepts on 64-bit glibc; setting it also stops
+  // glibc from moving the threshold on its own.
+  ::mallopt(M_MMAP_THRESHOLD, 32 << 20);
+  ::mallopt(M_TRIM_THRESHOLD, 1 << 30);
+#endif
 }
 
 int runToolMain(const char* tool, const std::function<int()>& body)

@@ -42,6 +42,15 @@ struct ToolError : std::runtime_error
  * exit code (UsageError 2, ToolError its own, out of memory and anything else 1). */
 int runToolMain(const char* tool, const std::function<int()>& body);
 
+/** \brief Keep freed memory in the process for the next stage instead of handing it back to the
+ * kernel (glibc: blocks up to 32 MiB from the heap, the heap top trimmed only past 1 GiB free).
+ * A run allocates and frees a few large arrays per stage (per tile with --stream); with glibc's
+ * defaults each comes back as fresh pages the kernel must fault in and zero again, and on a VM that
+ * returns freed pages to its host each of those faults costs microseconds (docs/BENCHMARKS.md,
+ * session 13). For short-lived batch tools; the streaming runner still trims when its resident
+ * set passes half the memory limit. A no-op without glibc. */
+void keepFreedMemory();
+
 /** \brief Walks the command line: `for (ArgWalker args(argc, argv); args.next();)`, then
  * `args.flag()` is the current word and `args.value()` takes the next one as its value (UsageError
  * "FLAG needs a value" at the end of the line). */

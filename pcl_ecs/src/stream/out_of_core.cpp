@@ -49,7 +49,7 @@ namespace
 {
 using Clock = std::chrono::steady_clock;
 constexpr const char* kScratchMarker = "pcl_ecs-scratch";
-constexpr int kFormatVersion = 1;
+constexpr int kFormatVersion = 2;
 constexpr std::size_t kChunk = 1 << 16;          // points per read
 constexpr std::size_t kSampleTarget = 1000000;   // points in the planning sample
 constexpr int kConcurrentTiles = 2;              // the plan assumes this many tiles in memory
@@ -115,6 +115,22 @@ std::vector<T> readVector(const fs::path& path)
   if (!f)
     failRun("cannot read the scratch file " + path.string());
   return v;
+}
+
+/// Appends the bytes of `path` to `into`; returns how many.
+std::size_t appendFile(const fs::path& path, std::vector<std::uint8_t>& into)
+{
+  std::ifstream f(path, std::ios::binary | std::ios::ate);
+  if (!f)
+    failRun("cannot read the scratch file " + path.string());
+  const auto bytes = static_cast<std::size_t>(f.tellg());
+  f.seekg(0);
+  const std::size_t at = into.size();
+  into.resize(at + bytes);
+  f.read(reinterpret_cast<char*>(into.data() + at), static_cast<std::streamsize>(bytes));
+  if (!f)
+    failRun("cannot read the scratch file " + path.string());
+  return bytes;
 }
 
 std::uint64_t directoryBytes(const fs::path& dir)
@@ -323,8 +339,15 @@ struct TileData
 struct Paths
 {
   fs::path root;
-  fs::path core(int t) const { return root / "tiles" / (std::to_string(t) + ".core"); }
-  fs::path halo(int t) const { return root / "tiles" / (std::to_string(t) + ".halo"); }
+  /// the points of tile t that part p of the split found (its own points; its halo's)
+  fs::path core(int t, int p) const
+  {
+    return root / "tiles" / (std::to_string(t) + ".core." + std::to_string(p));
+  }
+  fs::path halo(int t, int p) const
+  {
+    return root / "tiles" / (std::to_string(t) + ".halo." + std::to_string(p));
+  }
   fs::path attr(int t) const { return root / "a" / (std::to_string(t) + ".attr"); }
   fs::path sumA(int t) const { return root / "a" / (std::to_string(t) + ".sum"); }
   fs::path frontier(int t) const { return root / "a" / (std::to_string(t) + ".front"); }
@@ -341,7 +364,8 @@ struct Paths
     return root / "c" / (std::to_string(target) + ".from." + std::to_string(writer));
   }
   fs::path plan() const { return root / "plan.txt"; }
-  /// the finite points as pass 1 read them: (input index, record) each; read by the split
+  /// the finite points as pass 1 read them: (input index, record) each; read by the split when the
+  /// input is not binary
   fs::path points() const { return root / "points.bin"; }
 };
 
@@ -355,6 +379,11 @@ struct Plan
   double halo = 0.0;
   std::uint64_t tile_point_budget = 0;
   TileTree tree;
+  /// The split reads the input in `parts` consecutive runs at once; part_core[t][p] is how many
+  /// of tile t's own points run p found. A tile's own points are its parts' files in turn, which
+  /// is the input's order: the same tile whatever the number of parts.
+  int parts = 1;
+  std::vector<std::vector<std::uint64_t>> part_core;
 
   Eigen::Vector3d origin() const { return 0.5 * (lo + hi); }
 };
@@ -375,6 +404,13 @@ void savePlan(const Paths& paths, const Plan& plan)
   for (const Tile& t : plan.tree.tiles)
     os << t.lo[0] << ' ' << t.lo[1] << ' ' << t.hi[0] << ' ' << t.hi[1] << ' ' << t.core_points << ' '
        << t.halo_points << '\n';
+  os << plan.parts << '\n';
+  for (const auto& counts : plan.part_core)
+  {
+    for (const std::uint64_t c : counts)
+      os << c << ' ';
+    os << '\n';
+  }
   const std::string text = os.str();
   writeFileAtomic(paths.plan(), text.data(), text.size());
 }
@@ -439,6 +475,17 @@ bool loadPlan(const Paths& paths, const std::string& fingerprint, Plan& plan)
     t.hi[1] = num();
     t.core_points = count();
     t.halo_points = count();
+  }
+  plan.parts = integer();
+  if (!ok || plan.parts < 1 || plan.parts > 4096)
+    return false;
+  plan.part_core.assign(tiles, std::vector<std::uint64_t>(static_cast<std::size_t>(plan.parts)));
+  for (std::size_t t = 0; t < tiles; ++t)
+  {
+    std::uint64_t sum = 0;
+    for (std::uint64_t& c : plan.part_core[t])
+      sum += c = count();
+    ok = ok && sum == plan.tree.tiles[t].core_points;
   }
   return ok;
 }
@@ -541,6 +588,17 @@ private:
     if (options_.kill_after_steps && done >= options_.kill_after_steps)
       std::raise(SIGKILL);
   }
+  /// Removes scratch files no later step reads once their step's marker is written (their pages
+  /// go back to the system for the next files instead of piling up in the page cache and being
+  /// written to disk), unless the scratch is to be kept. A rerun skips the marked steps.
+  void dropScratch(const std::vector<fs::path>& files) const
+  {
+    if (options_.keep_scratch)
+      return;
+    std::error_code ec;
+    for (const fs::path& f : files)
+      fs::remove(f, ec);
+  }
   void scanAndPlan(io::PcdStreamReader& reader);
   void split();
   TileData loadTile(int t) const;
@@ -567,6 +625,13 @@ private:
   int tile_threads_ = 1;  // threads inside one tile (set by runStage for each batch of tiles)
   int threads_ = 1;       // all the run's threads
   std::uint64_t memory_limit_ = 0;
+  /// The input as the scan read it: where a binary input's records start, its size and time.
+  std::uint64_t data_offset_ = 0;
+  std::uintmax_t input_size_ = 0;
+  fs::file_time_type::rep input_mtime_ = 0;
+  /// Σ measure over the own points of the tiles phase A has finished in this run.
+  double measure_done_ = 0.0;
+  std::mutex measure_done_mutex_;
   /// Claim files present when the current colour started: target tile -> writers (ascending).
   std::map<int, std::vector<int>> claim_writers_;
   // global statistics
@@ -586,12 +651,19 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
   sample.reserve(std::min<std::uint64_t>(header_.points, kSampleTarget + kSampleTarget / 10));
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
   std::vector<std::uint8_t> chunk;
-  // The one read of the input: the finite points go to scratch as they come (with their input
-  // index), and the split reads them from there; the input is not opened again.
+  // A binary input is read again by the split, straight from its records (two reads of the input
+  // are less I/O than a read, a copy written to scratch and its read). An ASCII or compressed one
+  // is parsed once: its finite points go to scratch as they come (with their input index), and
+  // the split reads them from there; the input is not opened again.
+  const bool copy_points = header_.data != io::PcdData::Binary;
   const std::string copy_tmp = paths_.points().string() + ".tmp";
-  std::ofstream copy(copy_tmp, std::ios::binary | std::ios::trunc);
-  if (!copy)
-    failRun("cannot create " + copy_tmp);
+  std::ofstream copy;
+  if (copy_points)
+  {
+    copy.open(copy_tmp, std::ios::binary | std::ios::trunc);
+    if (!copy)
+      failRun("cannot create " + copy_tmp);
+  }
   std::vector<std::uint8_t> out;
   out.reserve(kChunk * (8 + step));
   std::uint64_t gid = 0, finite = 0;
@@ -606,9 +678,12 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
       xyz.get(rec, x, y, z);
       if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
         continue;
-      const auto* g = reinterpret_cast<const std::uint8_t*>(&gid);
-      out.insert(out.end(), g, g + 8);
-      out.insert(out.end(), rec, rec + step);
+      if (copy_points)
+      {
+        const auto* g = reinterpret_cast<const std::uint8_t*>(&gid);
+        out.insert(out.end(), g, g + 8);
+        out.insert(out.end(), rec, rec + step);
+      }
       ++finite;
       const Eigen::Vector3d p(x, y, z);
       lo = lo.cwiseMin(p);
@@ -616,9 +691,12 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
       if (inSample(gid, fraction))
         sample.push_back(p);
     }
-    copy.write(reinterpret_cast<const char*>(out.data()), static_cast<std::streamsize>(out.size()));
-    if (!copy)
-      failRun("cannot write " + copy_tmp + " (disk full?)");
+    if (copy_points)
+    {
+      copy.write(reinterpret_cast<const char*>(out.data()), static_cast<std::streamsize>(out.size()));
+      if (!copy)
+        failRun("cannot write " + copy_tmp + " (disk full?)");
+    }
     if ((gid & ((1u << 22) - 1)) < kChunk)
     {
       std::ostringstream os;
@@ -626,10 +704,14 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
       report(os.str());
     }
   }
-  copy.close();
-  if (!copy)
-    failRun("cannot write " + copy_tmp + " (disk full?)");
-  fs::rename(copy_tmp, paths_.points());
+  if (copy_points)
+  {
+    copy.close();
+    if (!copy)
+      failRun("cannot write " + copy_tmp + " (disk full?)");
+    fs::rename(copy_tmp, paths_.points());
+  }
+  data_offset_ = reader.dataOffset();
   plan_.input_points = header_.points;
   plan_.finite_points = finite;
   plan_.lo = lo;
@@ -746,108 +828,171 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
 void Runner::split()
 {
   const auto t0 = Clock::now();
-  std::ifstream points(paths_.points(), std::ios::binary);
-  if (!points)
-    failRun("cannot read " + paths_.points().string());
   const io::XyzAccess xyz(header_);
   const std::size_t step = header_.point_step;
   const std::size_t tiles = plan_.tree.tiles.size();
-  fs::create_directories(paths_.root / "tiles");
-  // One buffered file per tile core and halo: 64 MiB of buffers in all at most.
-  const std::size_t buffer = std::max<std::size_t>(4096, std::min<std::size_t>(1 << 20, (64u << 20) / (2 * tiles)));
-  struct Sink
+  // Where the finite points are: a binary input's own records (input index = record number,
+  // the non-finite ones skipped again), else pass 1's copy (input index, record).
+  const bool from_input = header_.data == io::PcdData::Binary;
+  const fs::path source = from_input ? fs::path(input_) : paths_.points();
+  const std::size_t record = from_input ? step : 8 + step;
+  const std::uint64_t records = from_input ? plan_.input_points : plan_.finite_points;
+  const std::uint64_t offset = from_input ? data_offset_ : 0;
+  if (from_input)
   {
-    std::vector<char> buf;
-    std::ofstream file;
-    void put(const void* data, std::size_t bytes)
+    // The scan's counts and bounds hold only for the file it read.
+    std::error_code ec;
+    const auto size = fs::file_size(source, ec);
+    const auto mtime = fs::last_write_time(source, ec).time_since_epoch().count();
+    if (ec || size != input_size_ || mtime != input_mtime_)
+      failRun(input_ + " changed while it was being read (its size or modification time); run again on a "
+                       "file that stays as it is");
+    if (size < offset + records * record)
+      failRun(input_ + " is shorter than its header says");
+  }
+  fs::create_directories(paths_.root / "tiles");
+  // The input in `parts` consecutive runs, one thread each; each run writes its own file per tile
+  // core and halo, and a tile's files read in turn give its points in input order. Buffers: 64 MiB
+  // in all at most.
+  const int parts = static_cast<int>(std::max<std::uint64_t>(
+      1, std::min<std::uint64_t>(static_cast<std::uint64_t>(threads_), records / 8192)));
+  plan_.parts = parts;
+  plan_.part_core.assign(tiles, std::vector<std::uint64_t>(static_cast<std::size_t>(parts), 0));
+  std::vector<std::vector<std::uint64_t>> part_halo(tiles, std::vector<std::uint64_t>(static_cast<std::size_t>(parts), 0));
+  std::vector<std::uint64_t> part_finite(static_cast<std::size_t>(parts), 0);
+  const std::size_t buffer = std::max<std::size_t>(
+      4096, std::min<std::size_t>(1 << 20, (64u << 20) / (2 * tiles * static_cast<std::size_t>(parts))));
+  std::atomic<std::uint64_t> done{0};
+  auto run = [&](int part) {
+    const auto p = static_cast<std::size_t>(part);
+    struct Sink
     {
-      if (buf.size() + bytes > buf.capacity())
-        flush();
-      const char* c = static_cast<const char*>(data);
-      buf.insert(buf.end(), c, c + bytes);
+      std::vector<char> buf;
+      std::ofstream file;
+      void put(const void* data, std::size_t bytes)
+      {
+        if (buf.size() + bytes > buf.capacity())
+          flush();
+        const char* c = static_cast<const char*>(data);
+        buf.insert(buf.end(), c, c + bytes);
+      }
+      void flush()
+      {
+        file.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+        buf.clear();
+      }
+    };
+    std::vector<Sink> core(tiles), halo(tiles);
+    for (std::size_t t = 0; t < tiles; ++t)
+    {
+      core[t].buf.reserve(buffer);
+      halo[t].buf.reserve(buffer);
+      core[t].file.open(paths_.core(static_cast<int>(t), part).string() + ".tmp", std::ios::binary | std::ios::trunc);
+      halo[t].file.open(paths_.halo(static_cast<int>(t), part).string() + ".tmp", std::ios::binary | std::ios::trunc);
+      if (!core[t].file || !halo[t].file)
+        failRun("cannot create the scratch files in " + (paths_.root / "tiles").string());
     }
-    void flush()
+    const std::uint64_t first = records * p / static_cast<std::uint64_t>(parts);
+    const std::uint64_t last = records * (p + 1) / static_cast<std::uint64_t>(parts);
+    std::ifstream in(source, std::ios::binary);
+    if (!in || !in.seekg(static_cast<std::streamoff>(offset + first * record)))
+      failRun("cannot read " + source.string());
+    std::vector<std::uint8_t> chunk(kChunk * record);
+    std::vector<int> near;
+    std::uint64_t finite = 0;
+    std::vector<std::uint64_t> own_count(tiles, 0), halo_count(tiles, 0);  // this part's
+    for (std::uint64_t at = first; at < last;)
     {
-      file.write(buf.data(), static_cast<std::streamsize>(buf.size()));
-      buf.clear();
+      const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(kChunk, last - at));
+      in.read(reinterpret_cast<char*>(chunk.data()), static_cast<std::streamsize>(n * record));
+      if (static_cast<std::size_t>(in.gcount()) != n * record)
+        failRun(source.string() + (from_input ? " changed while it was being read (it ended early)" : " is truncated"));
+      for (std::size_t i = 0; i < n; ++i)
+      {
+        const std::uint8_t* rec = chunk.data() + i * record;
+        std::uint64_t gid = at + i;
+        if (!from_input)
+        {
+          std::memcpy(&gid, rec, 8);
+          rec += 8;
+        }
+        double c[3];
+        xyz.get(rec, c[0], c[1], c[2]);
+        if (from_input && !(std::isfinite(c[0]) && std::isfinite(c[1]) && std::isfinite(c[2])))
+          continue;  // the copy of pass 1 holds finite points only
+        ++finite;
+        const std::array<double, 2> pt{{c[plan_.axis_u], c[plan_.axis_v]}};
+        const int own = plan_.tree.locate(pt);
+        std::uint64_t& count = own_count[static_cast<std::size_t>(own)];
+        // The index among the tile's own points found by this part; loadTile adds the earlier parts'.
+        const std::uint32_t src[2] = {static_cast<std::uint32_t>(own), static_cast<std::uint32_t>(count)};
+        if (++count >= std::numeric_limits<std::uint32_t>::max())
+          failRun("a tile holds more than 4 billion points: raise --memory-limit less or split the input");
+        core[static_cast<std::size_t>(own)].put(&gid, 8);
+        core[static_cast<std::size_t>(own)].put(rec, step);
+        near.clear();
+        plan_.tree.near(pt, plan_.halo, near);
+        for (int t : near)
+          if (t != own)
+          {
+            Sink& s = halo[static_cast<std::size_t>(t)];
+            ++halo_count[static_cast<std::size_t>(t)];
+            s.put(&gid, 8);
+            s.put(src, 8);
+            s.put(rec, step);
+          }
+      }
+      at += n;
+      const std::uint64_t before = done.fetch_add(n);
+      if ((before >> 22) != ((before + n) >> 22))
+      {
+        const double s = secondsSince(t0);
+        std::ostringstream os;
+        os << "split: " << before + n << " / " << records << " points, " << std::fixed << std::setprecision(2)
+           << (s > 0 ? static_cast<double>(before + n) / s / 1e6 : 0.0) << " M points/s";
+        report(os.str());
+      }
+    }
+    part_finite[p] = finite;
+    for (std::size_t t = 0; t < tiles; ++t)
+    {
+      plan_.part_core[t][p] = own_count[t];
+      part_halo[t][p] = halo_count[t];
+      core[t].flush();
+      halo[t].flush();
+      core[t].file.close();
+      halo[t].file.close();
+      if (!core[t].file || !halo[t].file)
+        failRun("cannot write the scratch files in " + (paths_.root / "tiles").string() + " (disk full?)");
     }
   };
-  std::vector<Sink> core(tiles), halo(tiles);
+  std::vector<int> all(static_cast<std::size_t>(parts));
+  std::iota(all.begin(), all.end(), 0);
+  forEachTile(all, parts, run);
+  std::uint64_t finite = 0;
+  for (const std::uint64_t f : part_finite)
+    finite += f;
+  if (finite != plan_.finite_points)
+    failRun(source.string() + (from_input ? " changed while it was being read: it holds another number of points"
+                                          : " holds fewer points than the scan found"));
   for (std::size_t t = 0; t < tiles; ++t)
   {
-    core[t].buf.reserve(buffer);
-    halo[t].buf.reserve(buffer);
-    core[t].file.open(paths_.core(static_cast<int>(t)).string() + ".tmp", std::ios::binary | std::ios::trunc);
-    halo[t].file.open(paths_.halo(static_cast<int>(t)).string() + ".tmp", std::ios::binary | std::ios::trunc);
-    if (!core[t].file || !halo[t].file)
-      failRun("cannot create the scratch files in " + (paths_.root / "tiles").string());
-  }
-  for (Tile& t : plan_.tree.tiles)
-    t.core_points = t.halo_points = 0;
-  const std::size_t record = 8 + step;
-  std::vector<std::uint8_t> chunk(kChunk * record);
-  std::vector<int> near;
-  std::uint64_t gid = 0, done = 0;
-  for (;;)
-  {
-    points.read(reinterpret_cast<char*>(chunk.data()), static_cast<std::streamsize>(chunk.size()));
-    const std::size_t bytes = static_cast<std::size_t>(points.gcount());
-    if (bytes % record != 0)
-      failRun(paths_.points().string() + " is truncated");
-    const std::size_t n = bytes / record;
-    if (n == 0)
-      break;
-    for (std::size_t i = 0; i < n; ++i, ++done)
+    Tile& tile = plan_.tree.tiles[t];
+    tile.core_points = tile.halo_points = 0;
+    for (std::size_t p = 0; p < static_cast<std::size_t>(parts); ++p)
     {
-      std::memcpy(&gid, chunk.data() + i * record, 8);
-      const std::uint8_t* rec = chunk.data() + i * record + 8;
-      double c[3];
-      xyz.get(rec, c[0], c[1], c[2]);  // finite: the scan copied only finite points
-      const std::array<double, 2> p{{c[plan_.axis_u], c[plan_.axis_v]}};
-      const int own = plan_.tree.locate(p);
-      Tile& ot = plan_.tree.tiles[static_cast<std::size_t>(own)];
-      const std::uint32_t src[2] = {static_cast<std::uint32_t>(own), static_cast<std::uint32_t>(ot.core_points)};
-      if (ot.core_points >= std::numeric_limits<std::uint32_t>::max())
-        failRun("a tile holds more than 4 billion points: raise --memory-limit less or split the input");
-      ++ot.core_points;
-      core[static_cast<std::size_t>(own)].put(&gid, 8);
-      core[static_cast<std::size_t>(own)].put(rec, step);
-      near.clear();
-      plan_.tree.near(p, plan_.halo, near);
-      for (int t : near)
-        if (t != own)
-        {
-          Sink& s = halo[static_cast<std::size_t>(t)];
-          ++plan_.tree.tiles[static_cast<std::size_t>(t)].halo_points;
-          s.put(&gid, 8);
-          s.put(src, 8);
-          s.put(rec, step);
-        }
+      tile.core_points += plan_.part_core[t][p];
+      tile.halo_points += part_halo[t][p];
     }
-    if ((done & ((1u << 22) - 1)) < kChunk)
+    if (tile.core_points + tile.halo_points >= std::numeric_limits<std::uint32_t>::max())
+      failRun("a tile holds more than 4 billion points: raise --memory-limit less or split the input");
+    for (int p = 0; p < parts; ++p)
     {
-      const double s = secondsSince(t0);
-      std::ostringstream os;
-      os << "split: " << done << " / " << plan_.finite_points << " points, " << std::fixed << std::setprecision(2)
-         << (s > 0 ? static_cast<double>(done) / s / 1e6 : 0.0) << " M points/s";
-      report(os.str());
+      fs::rename(paths_.core(static_cast<int>(t), p).string() + ".tmp", paths_.core(static_cast<int>(t), p));
+      fs::rename(paths_.halo(static_cast<int>(t), p).string() + ".tmp", paths_.halo(static_cast<int>(t), p));
     }
-  }
-  if (done != plan_.finite_points)
-    failRun(paths_.points().string() + " holds fewer points than the scan found");
-  for (std::size_t t = 0; t < tiles; ++t)
-  {
-    core[t].flush();
-    halo[t].flush();
-    core[t].file.close();
-    halo[t].file.close();
-    if (!core[t].file || !halo[t].file)
-      failRun("cannot write the scratch files in " + (paths_.root / "tiles").string() + " (disk full?)");
-    fs::rename(paths_.core(static_cast<int>(t)).string() + ".tmp", paths_.core(static_cast<int>(t)));
-    fs::rename(paths_.halo(static_cast<int>(t)).string() + ".tmp", paths_.halo(static_cast<int>(t)));
   }
   savePlan(paths_, plan_);  // the split is complete once the plan exists
-  points.close();
   std::error_code ec;
   fs::remove(paths_.points(), ec);  // the tiles hold every point now
   summary_.stage_seconds[1] = secondsSince(t0);
@@ -857,9 +1002,32 @@ TileData Runner::loadTile(int t) const
 {
   const std::size_t step = header_.point_step;
   const io::XyzAccess xyz(header_);
-  const auto core = readVector<std::uint8_t>(paths_.core(t));
-  const auto halo = readVector<std::uint8_t>(paths_.halo(t));
+  // The parts of the split in turn. A halo record names its point's index among the points of
+  // its own tile that the same part found: the earlier parts' counts come first.
+  std::vector<std::uint8_t> core, halo;
+  const auto& tile_parts = plan_.part_core;
+  for (int p = 0; p < plan_.parts; ++p)
+  {
+    appendFile(paths_.core(t, p), core);
+    const std::size_t first = halo.size();
+    appendFile(paths_.halo(t, p), halo);
+    if ((halo.size() - first) % (16 + step) != 0)
+      failDamaged("the halo files of tile " + std::to_string(t) + " do not hold whole points");
+    for (std::size_t at = first; at < halo.size(); at += 16 + step)
+    {
+      std::uint32_t src[2];
+      std::memcpy(src, halo.data() + at + 8, 8);
+      if (src[0] >= tile_parts.size())
+        failDamaged("the halo files of tile " + std::to_string(t) + " name a tile that does not exist");
+      for (int q = 0; q < p; ++q)
+        src[1] += static_cast<std::uint32_t>(tile_parts[src[0]][static_cast<std::size_t>(q)]);
+      std::memcpy(halo.data() + at + 12, &src[1], 4);
+    }
+  }
   const std::size_t nc = core.size() / (8 + step), nh = halo.size() / (16 + step);
+  const Tile& tile = plan_.tree.tiles[static_cast<std::size_t>(t)];
+  if (core.size() % (8 + step) != 0 || nc != tile.core_points || nh != tile.halo_points)
+    failDamaged("the point files of tile " + std::to_string(t) + " do not hold the points the plan counted");
   const std::size_t n = nc + nh;
   auto at = [&](std::size_t i) -> const std::uint8_t* {
     return i < nc ? core.data() + i * (8 + step) : halo.data() + (i - nc) * (16 + step);
@@ -1034,9 +1202,20 @@ void Runner::phaseA(int t)
   // neighbour is among them, so phase B needs neither the points nor a search.
   // Entries: the neighbour's squared distance (f32) and its index in the tile (its measure is in
   // the attributes, halo points' too), 8 bytes each after a count byte per point.
+  // A list can stop at a neighbour whose measure is at most a lower bound of δ: that one is not a
+  // feature whatever δ turns out to be. The bound: α × the measure summed over the tiles done so
+  // far (in this run) over the count of all points, since measures are >= 0 (with a margin for the
+  // summation order). Which tiles are done first changes the lists, never what phase B finds in
+  // them.
+  double not_feature = 0.0;
+  {
+    std::lock_guard<std::mutex> lock(measure_done_mutex_);
+    not_feature = (1.0 - 1e-9) * params_.feature_factor * measure_done_ /
+                  static_cast<double>(std::max<std::uint64_t>(1, plan_.finite_points));
+  }
   std::vector<std::uint8_t> front_count(n, 0xFF);  // 0xFF: a halo point (not needed)
   std::vector<std::uint8_t> front;
-  front.reserve(n * 4 * 8);
+  front.reserve(n * 2 * 8);
   for (std::size_t i = 0; i < n; ++i)
   {
     if (!d.is_core[i])
@@ -1058,6 +1237,8 @@ void Runner::phaseA(int t)
       std::memcpy(front.data() + at, &d2, 4);
       std::memcpy(front.data() + at + 4, &index, 4);
       ++count;
+      if (m <= not_feature)
+        break;
     }
     front_count[i] = count;
   }
@@ -1067,6 +1248,8 @@ void Runner::phaseA(int t)
   writeVectorAtomic(paths_.order(t), d.order);
   writeVectorAtomic(paths_.attr(t), attr);
   writeVectorAtomic(paths_.sumA(t), sums);  // the marker: written last
+  std::lock_guard<std::mutex> lock(measure_done_mutex_);
+  measure_done_ += sums[0];
 }
 
 void Runner::phaseB(int t)
@@ -1130,6 +1313,7 @@ void Runner::phaseB(int t)
       fs::create_directories(paths_.root / "b");
       writeVectorAtomic(paths_.dens(t), density);
       writeVectorAtomic(paths_.sumB(t), sums);
+      dropScratch({paths_.frontier(t)});
       return;
     }
   }
@@ -1159,6 +1343,7 @@ void Runner::phaseB(int t)
   fs::create_directories(paths_.root / "b");
   writeVectorAtomic(paths_.dens(t), density);
   writeVectorAtomic(paths_.sumB(t), sums);
+  dropScratch({paths_.frontier(t)});
 }
 
 void Runner::phaseC(int t)
@@ -1306,6 +1491,14 @@ void Runner::phaseC(int t)
   }
   writeVectorAtomic(paths_.out(t), out);
   writeVectorAtomic(paths_.doneC(t), stats);
+  // Nothing after the cover reads the tile's points or values (phase D reads the outputs).
+  std::vector<fs::path> done{paths_.attr(t), paths_.order(t), paths_.dens(t)};
+  for (int p = 0; p < plan_.parts; ++p)
+  {
+    done.push_back(paths_.core(t, p));
+    done.push_back(paths_.halo(t, p));
+  }
+  dropScratch(done);
 }
 
 void Runner::setRecordNormal(std::uint8_t* rec, Eigen::Vector3f nrm, const Eigen::Vector3d& at) const
@@ -1468,6 +1661,11 @@ StreamSummary Runner::run()
   // (the input is opened and read once).
   io::PcdStreamReader reader(input_);
   header_ = reader.header();
+  {
+    std::error_code ec;
+    input_size_ = fs::file_size(input_, ec);
+    input_mtime_ = fs::last_write_time(input_, ec).time_since_epoch().count();
+  }
   (void)io::XyzAccess(header_);
   std::error_code ec;
   if (fs::exists(paths_.root, ec))

@@ -73,6 +73,9 @@ public:
   std::size_t read(std::size_t max_points, std::vector<std::uint8_t>& records);
   /** \brief Start again from the first point. */
   void rewind();
+  /** \brief The byte where the data starts: for `DATA binary`, record i is the point_step bytes at
+   * dataOffset() + i × point_step. */
+  std::uint64_t dataOffset() const { return data_offset_; }
 
 private:
   class Decoder;
