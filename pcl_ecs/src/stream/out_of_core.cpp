@@ -1462,6 +1462,8 @@ void Runner::phaseC(int t)
   // within it are within it of the final output too, so phase D reads only these.
   if (params_.max_gap_factor > 0.0)
   {
+    const double gap = params_.max_gap_factor * cap_;
+    const double gap2 = gap * gap;
     std::vector<Eigen::Vector3d> known, own;
     std::vector<std::size_t> own_index;
     for (std::size_t i = 0; i < n; ++i)
@@ -1471,13 +1473,19 @@ void Runner::phaseC(int t)
         known.push_back(q);
       else if (d.is_core[i])
       {
+        // Within the gap of its own ball's representative: near an output point (as in memory,
+        // fillGaps); the others (covered by an earlier tile's ball, or far from their own) are
+        // looked up among all the known output points.
+        const int b = cover.owner[i];
+        if (b >= 0 && (cover.balls[static_cast<std::size_t>(b)].representative - q).squaredNorm() <= gap2)
+          continue;
         own.push_back(q);
         own_index.push_back(i);
       }
     }
     for (const CoverBall& b : cover.balls)
       known.push_back(b.representative);
-    const std::vector<std::uint8_t> far = farFrom(known, own, params_.max_gap_factor * cap_, tile_threads_);
+    const std::vector<std::uint8_t> far = farFrom(known, own, gap, tile_threads_);
     std::vector<std::uint8_t> candidates;
     for (std::size_t k = 0; k < own.size(); ++k)
       if (far[k])
