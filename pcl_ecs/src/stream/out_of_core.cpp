@@ -1038,7 +1038,6 @@ TileData Runner::loadTile(int t) const
     return p;
   };
   TileData d;
-  std::vector<Eigen::Vector3d> pos;  // positions by file order, when the order is computed here
   // Sorted by Hilbert code in the global box, ties by input index: the same order for a point
   // whichever tile loads it, so neighbour ties break the same way everywhere. Phase A saves the
   // order it found; later loads of the tile read it instead of sorting again.
@@ -1065,7 +1064,7 @@ TileData Runner::loadTile(int t) const
       std::uint32_t at;
     };
     std::vector<Key> keys(n);
-    pos.resize(n);
+    std::vector<Eigen::Vector3d> pos(n);  // by file order
     for (std::size_t i = 0; i < n; ++i)
     {
       std::uint64_t gid;
@@ -1101,7 +1100,9 @@ TileData Runner::loadTile(int t) const
       __builtin_prefetch(at(d.order[o + kAhead]));
     const std::size_t i = d.order[o];
     const std::uint8_t* r = at(i);
-    (*d.cloud)[o].getVector3fMap() = ((pos.empty() ? position(i) : pos[i]) - origin).cast<float>();
+    // From the record, which is fetched ahead (a position kept from the sort would be one more
+    // scattered read).
+    (*d.cloud)[o].getVector3fMap() = (position(i) - origin).cast<float>();
     std::memcpy(&d.gid[o], r, 8);
     d.is_core[o] = i < nc;
     if (i < nc)
