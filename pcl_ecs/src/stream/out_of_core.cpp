@@ -166,32 +166,35 @@ struct TileTree
   std::vector<KdNode> nodes;
   std::vector<Tile> tiles;
 
-  int locate(const std::array<double, 2>& p) const
+  /// The tile that owns p (at a split, `p[axis] < split` goes left) and, into `out`, every tile
+  /// whose rectangle comes within `h` of p (the owner among them): one walk down the tree.
+  int locateAndNear(const std::array<double, 2>& p, double h, std::vector<int>& out) const
   {
-    int n = 0;
-    while (nodes[static_cast<std::size_t>(n)].axis >= 0)
-    {
-      const KdNode& k = nodes[static_cast<std::size_t>(n)];
-      n = p[static_cast<std::size_t>(k.axis)] < k.split ? k.left : k.right;
-    }
-    return nodes[static_cast<std::size_t>(n)].tile;
+    int own = -1;
+    nearFrom(0, p, h, true, own, out);
+    return own;
   }
-  /// Tiles whose rectangle comes within `h` of p.
-  void near(const std::array<double, 2>& p, double h, std::vector<int>& out, int n = 0) const
+
+private:
+  void nearFrom(int n, const std::array<double, 2>& p, double h, bool owner_path, int& own,
+                std::vector<int>& out) const
   {
     const KdNode& k = nodes[static_cast<std::size_t>(n)];
     if (k.axis < 0)
     {
+      if (owner_path)
+        own = k.tile;
       const Tile& t = tiles[static_cast<std::size_t>(k.tile)];
-      if (rectDistance2(p, t.lo, t.hi) <= h * h)
+      if (owner_path || rectDistance2(p, t.lo, t.hi) <= h * h)
         out.push_back(k.tile);
       return;
     }
     const double c = p[static_cast<std::size_t>(k.axis)];
+    const bool left = c < k.split;  // the owner's side (h >= 0: that side is always walked)
     if (c - h < k.split)
-      near(p, h, out, k.left);
+      nearFrom(k.left, p, h, owner_path && left, own, out);
     if (c + h >= k.split)
-      near(p, h, out, k.right);
+      nearFrom(k.right, p, h, owner_path && !left, own, out);
   }
 };
 
@@ -868,25 +871,26 @@ void Runner::split()
     struct Sink
     {
       std::vector<char> buf;
+      std::size_t used = 0;
       std::ofstream file;
       void put(const void* data, std::size_t bytes)
       {
-        if (buf.size() + bytes > buf.capacity())
+        if (used + bytes > buf.size())
           flush();
-        const char* c = static_cast<const char*>(data);
-        buf.insert(buf.end(), c, c + bytes);
+        std::memcpy(buf.data() + used, data, bytes);
+        used += bytes;
       }
       void flush()
       {
-        file.write(buf.data(), static_cast<std::streamsize>(buf.size()));
-        buf.clear();
+        file.write(buf.data(), static_cast<std::streamsize>(used));
+        used = 0;
       }
     };
     std::vector<Sink> core(tiles), halo(tiles);
     for (std::size_t t = 0; t < tiles; ++t)
     {
-      core[t].buf.reserve(buffer);
-      halo[t].buf.reserve(buffer);
+      core[t].buf.resize(buffer);
+      halo[t].buf.resize(buffer);
       core[t].file.open(paths_.core(static_cast<int>(t), part).string() + ".tmp", std::ios::binary | std::ios::trunc);
       halo[t].file.open(paths_.halo(static_cast<int>(t), part).string() + ".tmp", std::ios::binary | std::ios::trunc);
       if (!core[t].file || !halo[t].file)
@@ -922,7 +926,8 @@ void Runner::split()
           continue;  // the copy of pass 1 holds finite points only
         ++finite;
         const std::array<double, 2> pt{{c[plan_.axis_u], c[plan_.axis_v]}};
-        const int own = plan_.tree.locate(pt);
+        near.clear();
+        const int own = plan_.tree.locateAndNear(pt, plan_.halo, near);
         std::uint64_t& count = own_count[static_cast<std::size_t>(own)];
         // The index among the tile's own points found by this part; loadTile adds the earlier parts'.
         const std::uint32_t src[2] = {static_cast<std::uint32_t>(own), static_cast<std::uint32_t>(count)};
@@ -930,8 +935,6 @@ void Runner::split()
           failRun("a tile holds more than 4 billion points: raise --memory-limit less or split the input");
         core[static_cast<std::size_t>(own)].put(&gid, 8);
         core[static_cast<std::size_t>(own)].put(rec, step);
-        near.clear();
-        plan_.tree.near(pt, plan_.halo, near);
         for (int t : near)
           if (t != own)
           {
