@@ -210,8 +210,16 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
   TileTree tree;
   const double inf = std::numeric_limits<double>::infinity();
   const double h2 = halo * halo;
-  std::vector<std::uint32_t> ids(sample.size());
-  std::iota(ids.begin(), ids.end(), 0u);
+  // The samples with their index, moved around by the selections below (sorting the points
+  // themselves rather than indices to them: no scattered reads).
+  struct Item
+  {
+    std::array<double, 2> p;
+    std::uint32_t id;
+  };
+  std::vector<Item> ids(sample.size());
+  for (std::size_t i = 0; i < sample.size(); ++i)
+    ids[i] = {sample[i], static_cast<std::uint32_t>(i)};
   struct Job
   {
     int node;
@@ -226,8 +234,8 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
     for (std::size_t i = b; i < e; ++i)
       for (std::size_t a = 0; a < 2; ++a)
       {
-        lo[a] = std::min(lo[a], sample[ids[i]][a]);
-        hi[a] = std::max(hi[a], sample[ids[i]][a]);
+        lo[a] = std::min(lo[a], ids[i].p[a]);
+        hi[a] = std::max(hi[a], ids[i].p[a]);
       }
   };
   // The halo samples of a child: the parent's halo samples and the sibling's own ones within reach.
@@ -239,8 +247,8 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
       if (rectDistance2(sample[i], child.lo, child.hi) <= h2)
         r.push_back(i);
     for (std::size_t k = sib_begin; k < sib_end; ++k)
-      if (rectDistance2(sample[ids[k]], child.lo, child.hi) <= h2)
-        r.push_back(ids[k]);
+      if (rectDistance2(ids[k].p, child.lo, child.hi) <= h2)
+        r.push_back(ids[k].id);
     return r;
   };
   tree.nodes.push_back({});
@@ -271,25 +279,25 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
       const std::size_t k = j.begin + count * (m / 2) / m;
       // The sample at rank k (by coordinate, then index: a total order, so the same sample
       // whatever the algorithm); a selection, not a sort: linear in the part's size.
-      std::nth_element(first, ids.begin() + static_cast<std::ptrdiff_t>(k), last, [&](std::uint32_t x, std::uint32_t y) {
-        return sample[x][a] < sample[y][a] || (sample[x][a] == sample[y][a] && x < y);
+      std::nth_element(first, ids.begin() + static_cast<std::ptrdiff_t>(k), last, [&](const Item& x, const Item& y) {
+        return x.p[a] < y.p[a] || (x.p[a] == y.p[a] && x.id < y.id);
       });
-      value = sample[ids[k]][a];
+      value = ids[k].p[a];
       // Everything below `value` goes left.
       mid = static_cast<std::size_t>(
-          std::partition(first, last, [&](std::uint32_t x) { return sample[x][a] < value; }) - ids.begin());
+          std::partition(first, last, [&](const Item& x) { return x.p[a] < value; }) - ids.begin());
       if (mid == j.begin)
       {
         // The lower part is one value: split just above it instead.
         mid = static_cast<std::size_t>(
-            std::partition(first, last, [&](std::uint32_t x) { return sample[x][a] <= value; }) - ids.begin());
+            std::partition(first, last, [&](const Item& x) { return x.p[a] <= value; }) - ids.begin());
         if (mid == j.end)
           split = false;
         else
         {
           value = inf;
           for (std::size_t i = mid; i < j.end; ++i)
-            value = std::min(value, sample[ids[i]][a]);
+            value = std::min(value, ids[i].p[a]);
         }
       }
     }
