@@ -104,6 +104,11 @@ protected:
     return opt;
   }
 
+  /// Runs a copy of `pristine` (NAME.pcd), emptying it at the first progress line that starts with
+  /// `prefix`, and expects the bytes of a run on `pristine` itself: the input is not read after that.
+  static void expectNotReadAfter(const std::string& name, const std::string& pristine, const Parameters& params,
+                                 const std::string& prefix);
+
   static std::string dir_;
 };
 std::string OutOfCore::dir_;
@@ -501,20 +506,11 @@ TEST_F(OutOfCore, ParsesATextInputOnce)
   {
     pcl::PCLPointCloud2 cloud;
     ASSERT_EQ(pcl::io::loadPCDFile(path("scan.pcd"), cloud), 0);
-    ASSERT_EQ(pcl::io::savePCDFile(path("once.pcd"), cloud, Eigen::Vector4f::Zero(), Eigen::Quaternionf::Identity(),
+    ASSERT_EQ(pcl::io::savePCDFile(path("once_text.pcd"), cloud, Eigen::Vector4f::Zero(), Eigen::Quaternionf::Identity(),
                                    false),
               0);
   }
-  fs::copy_file(path("once.pcd"), path("once_text.pcd"), fs::copy_options::overwrite_existing);
-  ASSERT_TRUE(runCalling(path("once.pcd"), path("once_out.pcd"), params, tiled("scratch-once"), "plan:", [&] {
-    std::ofstream(path("once.pcd"), std::ios::binary | std::ios::trunc).flush();
-  }));
-  EXPECT_EQ(fs::file_size(path("once.pcd")), 0u);
-  EXPECT_FALSE(fs::exists(path("scratch-once")));  // the copy of pass 1 went with the rest
-  simplifyOutOfCore(path("once_text.pcd"), path("once_ref.pcd"), params, tiled("scratch-once-ref"));
-  const std::string out = fileBytes(path("once_out.pcd"));
-  EXPECT_EQ(out, fileBytes(path("once_ref.pcd")));
-  EXPECT_GT(out.size(), 1000u);
+  expectNotReadAfter("once", path("once_text.pcd"), params, "plan:");
 }
 
 // A binary input is read again by the split. Changed between the scan and the split, the run
@@ -539,13 +535,22 @@ TEST_F(OutOfCore, ReadsABinaryInputTwiceAndNoticesAChangeBetween)
   EXPECT_FALSE(fs::exists(path("twice_out.pcd")));
   EXPECT_FALSE(fs::exists(path("scratch-twice")));
 
-  fs::copy_file(path("scan.pcd"), path("twice.pcd"), fs::copy_options::overwrite_existing);
-  ASSERT_TRUE(runCalling(path("twice.pcd"), path("twice_out.pcd"), params, tiled("scratch-twice"), "A (", [&] {
-    std::ofstream(path("twice.pcd"), std::ios::binary | std::ios::trunc).flush();
+  expectNotReadAfter("twice", path("scan.pcd"), params, "A (");
+}
+
+void OutOfCore::expectNotReadAfter(const std::string& name, const std::string& pristine, const Parameters& params,
+                                   const std::string& prefix)
+{
+  const std::string input = path(name + ".pcd");
+  fs::copy_file(pristine, input, fs::copy_options::overwrite_existing);
+  ASSERT_TRUE(runCalling(input, path(name + "_out.pcd"), params, tiled("scratch-" + name), prefix, [&] {
+    std::ofstream(input, std::ios::binary | std::ios::trunc).flush();
   }));
-  simplifyOutOfCore(path("scan.pcd"), path("twice_ref.pcd"), params, tiled("scratch-twice-ref"));
-  const std::string out = fileBytes(path("twice_out.pcd"));
-  EXPECT_EQ(out, fileBytes(path("twice_ref.pcd")));
+  EXPECT_EQ(fs::file_size(input), 0u);
+  EXPECT_FALSE(fs::exists(path("scratch-" + name)));  // pass 1's copy, if any, went with the rest
+  simplifyOutOfCore(pristine, path(name + "_ref.pcd"), params, tiled("scratch-" + name + "-ref"));
+  const std::string out = fileBytes(path(name + "_out.pcd"));
+  EXPECT_EQ(out, fileBytes(path(name + "_ref.pcd")));
   EXPECT_GT(out.size(), 1000u);
 }
 
