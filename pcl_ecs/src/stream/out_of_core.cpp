@@ -217,9 +217,9 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
     std::array<double, 2> p;
     std::uint32_t id;
   };
-  std::vector<Item> ids(sample.size());
+  std::vector<Item> items(sample.size());
   for (std::size_t i = 0; i < sample.size(); ++i)
-    ids[i] = {sample[i], static_cast<std::uint32_t>(i)};
+    items[i] = {sample[i], static_cast<std::uint32_t>(i)};
   struct Job
   {
     int node;
@@ -234,8 +234,8 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
     for (std::size_t i = b; i < e; ++i)
       for (std::size_t a = 0; a < 2; ++a)
       {
-        lo[a] = std::min(lo[a], ids[i].p[a]);
-        hi[a] = std::max(hi[a], ids[i].p[a]);
+        lo[a] = std::min(lo[a], items[i].p[a]);
+        hi[a] = std::max(hi[a], items[i].p[a]);
       }
   };
   // The halo samples of a child: the parent's halo samples and the sibling's own ones within reach.
@@ -247,14 +247,14 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
       if (rectDistance2(sample[i], child.lo, child.hi) <= h2)
         r.push_back(i);
     for (std::size_t k = sib_begin; k < sib_end; ++k)
-      if (rectDistance2(ids[k].p, child.lo, child.hi) <= h2)
-        r.push_back(ids[k].id);
+      if (rectDistance2(items[k].p, child.lo, child.hi) <= h2)
+        r.push_back(items[k].id);
     return r;
   };
   tree.nodes.push_back({});
   std::vector<Job> jobs;
-  Job root{0, 0, ids.size(), {-inf, -inf}, {inf, inf}, {}, {}, {}};
-  extent(0, ids.size(), root.slo, root.shi);
+  Job root{0, 0, items.size(), {-inf, -inf}, {inf, inf}, {}, {}, {}};
+  extent(0, items.size(), root.slo, root.shi);
   jobs.push_back(std::move(root));
   // Depth-first, left before right: tiles are numbered in a deterministic, spatially coherent order.
   while (!jobs.empty())
@@ -270,8 +270,8 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
     if (split)
     {
       const std::size_t a = static_cast<std::size_t>(axis);
-      auto first = ids.begin() + static_cast<std::ptrdiff_t>(j.begin);
-      auto last = ids.begin() + static_cast<std::ptrdiff_t>(j.end);
+      auto first = items.begin() + static_cast<std::ptrdiff_t>(j.begin);
+      auto last = items.begin() + static_cast<std::ptrdiff_t>(j.end);
       // Split into the fewest tiles that respect the bound, as evenly as possible: a tile count m
       // splits m / 2 : m - m / 2 (not always in halves, which would leave tiles at half the bound).
       const std::size_t m = std::max<std::size_t>(
@@ -279,25 +279,25 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
       const std::size_t k = j.begin + count * (m / 2) / m;
       // The sample at rank k (by coordinate, then index: a total order, so the same sample
       // whatever the algorithm); a selection, not a sort: linear in the part's size.
-      std::nth_element(first, ids.begin() + static_cast<std::ptrdiff_t>(k), last, [&](const Item& x, const Item& y) {
+      std::nth_element(first, items.begin() + static_cast<std::ptrdiff_t>(k), last, [&](const Item& x, const Item& y) {
         return x.p[a] < y.p[a] || (x.p[a] == y.p[a] && x.id < y.id);
       });
-      value = ids[k].p[a];
+      value = items[k].p[a];
       // Everything below `value` goes left.
       mid = static_cast<std::size_t>(
-          std::partition(first, last, [&](const Item& x) { return x.p[a] < value; }) - ids.begin());
+          std::partition(first, last, [&](const Item& x) { return x.p[a] < value; }) - items.begin());
       if (mid == j.begin)
       {
         // The lower part is one value: split just above it instead.
         mid = static_cast<std::size_t>(
-            std::partition(first, last, [&](const Item& x) { return x.p[a] <= value; }) - ids.begin());
+            std::partition(first, last, [&](const Item& x) { return x.p[a] <= value; }) - items.begin());
         if (mid == j.end)
           split = false;
         else
         {
           value = inf;
           for (std::size_t i = mid; i < j.end; ++i)
-            value = std::min(value, ids[i].p[a]);
+            value = std::min(value, items[i].p[a]);
         }
       }
     }
