@@ -88,8 +88,10 @@ TEST_F(StreamCli, KilledRunResumesToTheSameBytes)
   const auto j = nlohmann::json::parse(slurp(path("whole.pcd.json")));
   const std::size_t tiles = j["tiles"]["list"].size();
   ASSERT_GE(tiles, 3u);
-  // Killed in phase B (after every tile of phase A and one of B), then in phase C.
-  for (const std::size_t kill_at : {tiles + 1, 2 * tiles + 1})
+  // Killed in phase B (after every tile of phase A and one of B), in phase C, then in phase D (the
+  // gap bound; every tile's points and values are gone from the scratch by then, as nothing after
+  // its cover reads them).
+  for (const std::size_t kill_at : {tiles + 1, 2 * tiles + 1, 3 * tiles + 1})
   {
     SCOPED_TRACE("killed after step " + std::to_string(kill_at));
     const RunResult killed = runTool(kSimplify, args("again.pcd") + " --quiet --debug-kill-after " + std::to_string(kill_at));
