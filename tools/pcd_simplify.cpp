@@ -58,9 +58,10 @@ Scans larger than memory (PCD in, binary PCD out; docs/STREAMING.md):
                       --threads. The gap bound (--max-gap) holds across tiles as in memory.
   --memory-limit SIZE memory budget, e.g. 512M, 2G (default: a quarter of the RAM, >= 256M)
   --scratch DIR       scratch directory (default OUTPUT.ecs-scratch); needs about 150 bytes
-                      per input point plus 2.3 × the input's size free (50M points use
-                      6.5 GiB); removed on success
-  --keep-scratch      keep the scratch directory after success
+                      per input point plus 2.3 × the input's size free (50M points of 17
+                      bytes use 4.4 GiB at the peak); removed on success
+  --keep-scratch      keep the scratch directory after success, with every intermediate file
+                      (by default a tile's files go as soon as no later step reads them)
   --tile-points N     largest tile, own points + halo (default: from --memory-limit); smaller
                       tiles, more of them: for experiments and tests
 

@@ -41,6 +41,8 @@ struct StreamOptions
   /** \brief Scratch directory ("" : OUTPUT.ecs-scratch beside the output). Removed on success
    * unless keep_scratch. */
   std::string scratch_dir;
+  /** \brief Keep the scratch directory and every intermediate file in it (by default a tile's
+   * files are removed as soon as no later step reads them, and the directory on success). */
   bool keep_scratch = false;
   /** \brief Largest tile (own points + halo) in points; 0: derived from memory_limit. For tests and
    * experiments: part of the plan, so it changes the output like the memory limit does. */
