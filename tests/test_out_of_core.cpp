@@ -17,6 +17,7 @@
 #include <random>
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/kdtree/kdtree_flann.h>
 
@@ -591,6 +592,67 @@ TEST_F(OutOfCore, SkipsNonFinitePointsTheSameWayFromEitherSource)
   EXPECT_GT(out.size(), 1000u);
   for (const pcl::PointXYZ& p : loadXyz(path("holes_out.pcd")))
     ASSERT_TRUE(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z));
+}
+
+/// Open file descriptors of this process.
+std::size_t openFiles()
+{
+  std::size_t n = 0;
+  for (const auto& e : fs::directory_iterator("/proc/self/fd"))
+  {
+    (void)e;
+    ++n;
+  }
+  return n;
+}
+
+// The split keeps two files a tile open for each run of the input it reads at once: with few file
+// descriptors to spare it reads in fewer runs (the same bytes), with too few for one it says so
+// and leaves nothing behind.
+TEST_F(OutOfCore, SplitsWithinTheOpenFileLimit)
+{
+  Parameters params;
+  params.threads = 4;
+  const StreamSummary ref = simplifyOutOfCore(path("scan.pcd"), path("fd_ref.pcd"), params, tiled("scratch-fd-ref", 12));
+  const std::size_t tiles = ref.tiles.size();
+  ASSERT_GE(tiles, 12u);
+  EXPECT_EQ(ref.split_runs, 4);
+  rlimit saved{};
+  ASSERT_EQ(::getrlimit(RLIMIT_NOFILE, &saved), 0);
+  auto limited = [&](std::size_t room, const std::string& out, const std::string& scratch) {
+    rlimit low = saved;
+    low.rlim_cur = openFiles() + room;
+    EXPECT_EQ(::setrlimit(RLIMIT_NOFILE, &low), 0);
+    try
+    {
+      const StreamSummary s = simplifyOutOfCore(path("scan.pcd"), path(out), params, tiled(scratch, 12));
+      ::setrlimit(RLIMIT_NOFILE, &saved);
+      return s;
+    }
+    catch (...)
+    {
+      ::setrlimit(RLIMIT_NOFILE, &saved);
+      throw;
+    }
+  };
+  // Room for one run and a half: one run.
+  const StreamSummary one = limited(3 * tiles + 16, "fd_one.pcd", "scratch-fd-one");
+  EXPECT_EQ(one.split_runs, 1);
+  const std::string out = fileBytes(path("fd_one.pcd"));
+  EXPECT_EQ(out, fileBytes(path("fd_ref.pcd")));
+  EXPECT_GT(out.size(), 1000u);
+  // Room for fewer files than one run needs.
+  try
+  {
+    limited(tiles, "fd_none.pcd", "scratch-fd-none");
+    ADD_FAILURE() << "the split ran out of files";
+  }
+  catch (const std::exception& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("open files"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(path("fd_none.pcd")));
+  EXPECT_FALSE(fs::exists(path("scratch-fd-none")));
 }
 
 TEST_F(OutOfCore, RefusesWhatItCannotDo)

@@ -456,6 +456,7 @@ int runStream(const Options& o)
                        {"halo_points", t.halo_points}, {"colour", t.colour}});
     j["tiles"] = {{"axes", {s.axis_u, s.axis_v}}, {"tile_point_budget", s.tile_point_budget}, {"list", tiles},
                   {"incomplete_neighbourhoods", s.incomplete_neighbourhoods},
+                  {"split_runs", s.split_runs},
                   {"halo_too_narrow", s.halo_too_narrow}};
     j["scratch_bytes"] = s.scratch_bytes;
     j["resumed"] = s.resumed;

@@ -33,6 +33,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include <sys/resource.h>
 #include <unistd.h>
 #ifdef __GLIBC__
 #include <malloc.h>
@@ -131,6 +132,21 @@ std::size_t appendFile(const fs::path& path, std::vector<std::uint8_t>& into)
   if (!f)
     failRun("cannot read the scratch file " + path.string());
   return bytes;
+}
+
+/// File descriptors this process can still open: its soft limit less those open now.
+std::uint64_t freeFileDescriptors()
+{
+  rlimit limit{};
+  if (::getrlimit(RLIMIT_NOFILE, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY)
+    return std::uint64_t{1} << 20;
+  std::uint64_t open = 0;
+  std::error_code ec;
+  for (auto it = fs::directory_iterator("/proc/self/fd", ec); !ec && it != fs::directory_iterator(); it.increment(ec))
+    ++open;
+  if (ec)
+    open = 16;  // no /proc: a guess
+  return limit.rlim_cur > open ? limit.rlim_cur - open : 0;
 }
 
 std::uint64_t directoryBytes(const fs::path& dir)
@@ -864,9 +880,20 @@ void Runner::split()
   fs::create_directories(paths_.root / "tiles");
   // The input in `parts` consecutive runs, one thread each; each run writes its own file per tile
   // core and halo, and a tile's files read in turn give its points in input order. Buffers: 64 MiB
-  // in all at most.
+  // in all at most. A run keeps two files a tile and the input open: no more runs than the
+  // process may open files for (with a few to spare).
+  const std::uint64_t files_per_run = 2 * tiles + 1, spare = 8;
+  const std::uint64_t files = freeFileDescriptors();
+  if (files < files_per_run + spare)
+  {
+    std::ostringstream os;
+    os << "the split needs " << files_per_run + spare << " open files (two per tile, " << tiles
+       << " tiles) but this process may open only " << files
+       << " more: raise the limit (ulimit -n) or the memory limit (fewer, larger tiles)";
+    failRun(os.str());
+  }
   const int parts = static_cast<int>(std::max<std::uint64_t>(
-      1, std::min<std::uint64_t>(static_cast<std::uint64_t>(threads_), records / 8192)));
+      1, std::min({static_cast<std::uint64_t>(threads_), records / 8192, (files - spare) / files_per_run})));
   plan_.parts = parts;
   plan_.part_core.assign(tiles, std::vector<std::uint64_t>(static_cast<std::size_t>(parts), 0));
   std::vector<std::vector<std::uint64_t>> part_halo(tiles, std::vector<std::uint64_t>(static_cast<std::size_t>(parts), 0));
@@ -1737,6 +1764,7 @@ StreamSummary Runner::run()
   summary_.axis_u = plan_.axis_u;
   summary_.axis_v = plan_.axis_v;
   summary_.tile_point_budget = plan_.tile_point_budget;
+  summary_.split_runs = plan_.parts;
   viewpoint_local_ = Eigen::Vector3d(header_.viewpoint[0], header_.viewpoint[1], header_.viewpoint[2]) - plan_.origin();
   normal_fields_ = {header_.fieldIndex("normal_x"), header_.fieldIndex("normal_y"), header_.fieldIndex("normal_z")};
   const int tiles = static_cast<int>(plan_.tree.tiles.size());

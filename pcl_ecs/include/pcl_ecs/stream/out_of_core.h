@@ -83,6 +83,7 @@ struct StreamSummary
   double max_error = 0.0;
   std::uint64_t incomplete_neighbourhoods = 0;  ///< core points whose K neighbours reach past the halo
   std::uint64_t search_fallback_tiles = 0;  ///< tiles re-read in phase B (a point with only feature neighbours)
+  int split_runs = 0;                 ///< runs of the input the split read at once (threads, open files)
   bool halo_too_narrow = false;       ///< 2 × the radius cap did not fit in the halo (warned)
   std::uint64_t tile_point_budget = 0;  ///< largest core + halo planned per tile
   std::uint64_t scratch_bytes = 0;    ///< largest scratch directory size seen
