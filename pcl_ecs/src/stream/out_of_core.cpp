@@ -517,15 +517,34 @@ bool loadPlan(const Paths& paths, const std::string& fingerprint, Plan& plan)
   return ok;
 }
 
+/// A file's size and modification time: what the fingerprint records of the input, and what the
+/// split checks has not changed since the scan.
+struct FileStamp
+{
+  std::uintmax_t size = 0;
+  fs::file_time_type::rep mtime = 0;
+  bool known = false;  ///< both could be read
+  bool same(const FileStamp& o) const { return known && o.known && size == o.size && mtime == o.mtime; }
+};
+
+FileStamp stampOf(const fs::path& file)
+{
+  std::error_code size_error, time_error;
+  FileStamp s;
+  s.size = fs::file_size(file, size_error);
+  s.mtime = fs::last_write_time(file, time_error).time_since_epoch().count();
+  s.known = !size_error && !time_error;
+  return s;
+}
+
 std::string fingerprintOf(const std::string& input, const Parameters& p, std::uint64_t memory_limit)
 {
   std::error_code ec;
   const fs::path abs = fs::absolute(input, ec);
-  const auto size = fs::file_size(input, ec);
-  const auto mtime = fs::last_write_time(input, ec).time_since_epoch().count();
+  const FileStamp stamp = stampOf(input);
   std::ostringstream os;
-  os << std::setprecision(17) << "v" << kFormatVersion << " in=" << abs.string() << " size=" << size
-     << " mtime=" << mtime << " terr=" << p.error_threshold << " alpha=" << p.feature_factor
+  os << std::setprecision(17) << "v" << kFormatVersion << " in=" << abs.string() << " size=" << stamp.size
+     << " mtime=" << stamp.mtime << " terr=" << p.error_threshold << " alpha=" << p.feature_factor
      << " k=" << p.k_neighbors << " form=" << toString(p.error_form) << " adaptive=" << p.adaptive
      << " af=" << p.adaptive_factor << " cap=" << p.radius_cap_factor << " rep=" << p.max_representative_offset
      << " gap=" << p.max_gap_factor
@@ -654,8 +673,7 @@ private:
   std::uint64_t memory_limit_ = 0;
   /// The input as the scan read it: where a binary input's records start, its size and time.
   std::uint64_t data_offset_ = 0;
-  std::uintmax_t input_size_ = 0;
-  fs::file_time_type::rep input_mtime_ = 0;
+  FileStamp input_stamp_;
   /// Σ measure over the own points of the tiles phase A has finished in this run.
   double measure_done_ = 0.0;
   std::mutex measure_done_mutex_;
@@ -692,7 +710,8 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
       failRun("cannot create " + copy_tmp);
   }
   std::vector<std::uint8_t> out;
-  out.reserve(kChunk * (8 + step));
+  if (copy_points)
+    out.reserve(kChunk * (8 + step));
   std::uint64_t gid = 0, finite = 0;
   std::size_t n;
   while ((n = reader.read(kChunk, chunk)) > 0)
@@ -868,13 +887,11 @@ void Runner::split()
   if (from_input)
   {
     // The scan's counts and bounds hold only for the file it read.
-    std::error_code ec;
-    const auto size = fs::file_size(source, ec);
-    const auto mtime = fs::last_write_time(source, ec).time_since_epoch().count();
-    if (ec || size != input_size_ || mtime != input_mtime_)
+    const FileStamp now = stampOf(source);
+    if (!now.same(input_stamp_))
       failRun(input_ + " changed while it was being read (its size or modification time); run again on a "
                        "file that stays as it is");
-    if (size < offset + records * record)
+    if (now.size < offset + records * record)
       failRun(input_ + " is shorter than its header says");
   }
   fs::create_directories(paths_.root / "tiles");
@@ -1708,11 +1725,7 @@ StreamSummary Runner::run()
   // (the input is opened and read once).
   io::PcdStreamReader reader(input_);
   header_ = reader.header();
-  {
-    std::error_code ec;
-    input_size_ = fs::file_size(input_, ec);
-    input_mtime_ = fs::last_write_time(input_, ec).time_since_epoch().count();
-  }
+  input_stamp_ = stampOf(input_);
   (void)io::XyzAccess(header_);
   std::error_code ec;
   if (fs::exists(paths_.root, ec))
