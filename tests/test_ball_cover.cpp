@@ -1,5 +1,6 @@
 #include <pcl_ecs/stages/ball_cover.h>
 #include <pcl_ecs/stages/gap_fill.h>
+#include <pcl_ecs/stages/quadric.h>
 
 #include <pcl_ecs/stages/density_weights.h>
 #include <pcl_ecs/stages/local_density.h>
@@ -162,6 +163,104 @@ TEST(BallCover, RepresentativeOffsetIsBounded)
       EXPECT_EQ(beyond_half, 0u);
     RecordProperty("centre_used_" + std::to_string(limit), static_cast<int>(centre_used));
   }
+}
+
+namespace
+{
+/// n points uniform on [-0.5, 0.5]² in x, y; z Gaussian of deviation `smooth_noise` where x < 0 and
+/// uniform in [-rough_depth, rough_depth] where x >= 0 (a layer of scattered returns, like
+/// vegetation over ground).
+Cloud::Ptr halfRoughPlane(int n, double smooth_noise, double rough_depth, std::uint64_t seed)
+{
+  Rng rng(seed);
+  auto c = std::make_shared<Cloud>();
+  for (int i = 0; i < n; ++i)
+  {
+    const double x = rng.uniform(-0.5, 0.5), y = rng.uniform(-0.5, 0.5);
+    const double z = x < 0.0 ? smooth_noise * rng.normal() : rng.uniform(-rough_depth, rough_depth);
+    c->push_back(toPoint({x, y, z}));
+  }
+  return c;
+}
+}  // namespace
+
+// Parameters::representative_cutoff: on a noisy plane the quadric's tangential directions are weak
+// (the normals differ by a few degrees); with the E(r) cutoff (1e-3) they move the optimised point
+// along the plane, with the default (0.05) it moves across the plane only.
+TEST(BallCover, RepresentativeMovesAcrossANoisyPlaneOnly)
+{
+  const auto cloud = halfRoughPlane(6000, 0.002, 0.002, 5);  // both halves: σ-like noise of 0.002
+  for (const double cutoff : {pcl_ecs::kQuadricCutoff, 0.05})
+  {
+    pcl_ecs::Parameters p;
+    p.representative_cutoff = cutoff;
+    p.max_representative_offset = 1.0;
+    p.max_roughness = 10.0;  // never: this test is about the cutoff alone
+    CoverRun run(cloud, p, 2e-3);
+    std::size_t along = 0, moved = 0;
+    double worst_along = 0.0;
+    for (const auto& b : run.out.balls)
+    {
+      if (b.used_centre)
+        continue;
+      ++moved;
+      const Eigen::Vector3d d =
+          b.representative - (*cloud)[static_cast<std::size_t>(b.centre)].getVector3fMap().cast<double>();
+      const double tangential = d.head<2>().norm() / b.radius;
+      worst_along = std::max(worst_along, tangential);
+      along += tangential > 0.2 ? 1 : 0;
+    }
+    ASSERT_GT(moved, run.out.balls.size() / 2);
+    if (cutoff == 0.05)
+      EXPECT_LT(worst_along, 0.05) << "moved " << moved;
+    else
+      EXPECT_GT(along, moved / 20) << "the test shape must exercise the cutoff (worst " << worst_along << ")";
+  }
+}
+
+// Parameters::max_roughness: balls on the smooth half fit their planes within a few hundredths of
+// r; balls in the scattered layer do not (a tenth to a half of r). The limit changes which point
+// stands for a ball, never the balls: with it, exactly the balls above it take their centre.
+TEST(BallCover, RoughBallsKeepTheirCentre)
+{
+  const auto cloud = halfRoughPlane(8000, 0.0005, 0.03, 6);
+  pcl_ecs::Parameters with, without;
+  without.max_roughness = 10.0;  // never
+  const double limit = with.max_roughness;
+  CoverRun a(cloud, with, 2e-3), b(cloud, without, 2e-3);
+  ASSERT_EQ(a.out.balls.size(), b.out.balls.size());
+  std::vector<double> smooth, rough;
+  std::size_t switched = 0;
+  for (std::size_t i = 0; i < a.out.balls.size(); ++i)
+  {
+    const auto& ba = a.out.balls[i];
+    const auto& bb = b.out.balls[i];
+    ASSERT_EQ(ba.centre, bb.centre);
+    ASSERT_EQ(ba.radius, bb.radius);
+    ASSERT_EQ(ba.roughness, bb.roughness);
+    EXPECT_GE(ba.roughness, 0.0);
+    EXPECT_LE(ba.roughness, 2.0);  // Q(x_min) <= Q(c), and every plane is within 2r of c
+    const Eigen::Vector3d c = (*cloud)[static_cast<std::size_t>(ba.centre)].getVector3fMap().cast<double>();
+    if (ba.roughness > limit)
+    {
+      EXPECT_TRUE(ba.used_centre);
+      EXPECT_EQ(ba.representative, c);
+      switched += bb.used_centre ? 0 : 1;
+    }
+    else
+    {
+      EXPECT_EQ(ba.used_centre, bb.used_centre);
+      EXPECT_EQ(ba.representative, bb.representative);
+    }
+    if (ba.radius > 0.0 && std::abs(c.x()) >= 0.1)  // away from the seam
+      (c.x() < 0.0 ? smooth : rough).push_back(ba.roughness);
+  }
+  ASSERT_GT(smooth.size(), 20u);  // large balls on the smooth half
+  ASSERT_GT(rough.size(), 100u);
+  EXPECT_LT(*std::max_element(smooth.begin(), smooth.end()), 0.05);
+  std::nth_element(rough.begin(), rough.begin() + rough.size() / 2, rough.end());
+  EXPECT_GT(rough[rough.size() / 2], 0.1);
+  EXPECT_GT(switched, rough.size() / 5) << "the test shape must exercise the limit";
 }
 
 namespace

@@ -24,6 +24,9 @@ TEST(Parameters, DefaultsAreValidAndDocumented)
   EXPECT_EQ(p.target_size, 0u);
   EXPECT_DOUBLE_EQ(p.max_gap_factor, 1.0);
   EXPECT_DOUBLE_EQ(p.target_gap_factor, 0.6);
+  EXPECT_DOUBLE_EQ(p.max_representative_offset, 0.5);
+  EXPECT_DOUBLE_EQ(p.representative_cutoff, 0.05);
+  EXPECT_DOUBLE_EQ(p.max_roughness, 0.2);
   Parameters off = p;
   off.max_gap_factor = 0.0;  // off is valid
   off.target_gap_factor = 0.0;
@@ -57,6 +60,12 @@ TEST(Parameters, EachBadValueIsRefusedByName)
       {[](Parameters& p) { p.max_gap_factor = 101.0; }, "max_gap_factor"},
       {[](Parameters& p) { p.max_gap_factor = std::numeric_limits<double>::quiet_NaN(); }, "max_gap_factor"},
       {[](Parameters& p) { p.target_gap_factor = -1.0; }, "target_gap_factor"},
+      {[](Parameters& p) { p.representative_cutoff = 0.0; }, "representative_cutoff"},
+      {[](Parameters& p) { p.representative_cutoff = 1.5; }, "representative_cutoff"},
+      {[](Parameters& p) { p.representative_cutoff = std::numeric_limits<double>::quiet_NaN(); }, "representative_cutoff"},
+      {[](Parameters& p) { p.max_roughness = 0.0; }, "max_roughness"},
+      {[](Parameters& p) { p.max_roughness = 11.0; }, "max_roughness"},
+      {[](Parameters& p) { p.max_roughness = std::numeric_limits<double>::infinity(); }, "max_roughness"},
       {[](Parameters& p) { p.target_gap_factor = 1e9; }, "target_gap_factor"},
       {[](Parameters& p) { p.threads = -1; }, "threads"},
   };

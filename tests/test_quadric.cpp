@@ -82,3 +82,20 @@ TEST(Quadric, TinyEigenvaluesAreTruncated)
   EXPECT_EQ(m.rank, 1);
   EXPECT_TRUE(m.x.isApprox(Eigen::Vector3d(0, 0, 0.1), 1e-12));
 }
+
+// The representative's coarser cutoff (Parameters::representative_cutoff): a direction at 2% of
+// the strongest moves the minimiser under the default cutoff (1e-3) and stays at the centre under 5%.
+TEST(Quadric, CoarserCutoffHoldsTheWeakDirectionAtTheCentre)
+{
+  Quadric q;
+  q.add(1.0, Eigen::Vector3d::UnitZ(), Eigen::Vector3d(0, 0, 0.3));
+  q.add(0.02, Eigen::Vector3d::UnitX(), Eigen::Vector3d(0.5, 0, 0));
+  const auto fine = pcl_ecs::minimizeQuadric(q);
+  EXPECT_EQ(fine.rank, 2);
+  EXPECT_TRUE(fine.x.isApprox(Eigen::Vector3d(0.5, 0, 0.3), 1e-12));
+  EXPECT_NEAR(fine.value, 0.0, 1e-15);
+  const auto coarse = pcl_ecs::minimizeQuadric(q, 0.05);
+  EXPECT_EQ(coarse.rank, 1);
+  EXPECT_TRUE(coarse.x.isApprox(Eigen::Vector3d(0, 0, 0.3), 1e-12));
+  EXPECT_NEAR(coarse.value, 0.02 * 0.25, 1e-15);  // the x plane's distance, 0.5, squared and weighted
+}

@@ -364,6 +364,8 @@ nlohmann::json statsJson(const Options& o, const RunOutput& run, const pcl::PCLP
                      {"radius_cap_factor", p.radius_cap_factor},
                      {"target_radius_cap", p.target_radius_cap},
                      {"max_representative_offset", p.max_representative_offset},
+                     {"representative_cutoff", p.representative_cutoff},
+                     {"max_roughness", p.max_roughness},
                      {"max_gap_factor", p.max_gap_factor},
                      {"target_gap_factor", p.target_gap_factor},
                      {"radius_cap_factor_used", s.radius_cap_factor},

@@ -56,6 +56,10 @@ std::string validate(const Parameters& p)
   if (!(std::isfinite(p.max_representative_offset) && p.max_representative_offset > 0.0 &&
         p.max_representative_offset <= 1.0))
     return bad("max_representative_offset", p.max_representative_offset, "in (0, 1]");
+  if (!(std::isfinite(p.representative_cutoff) && p.representative_cutoff > 0.0 && p.representative_cutoff <= 1.0))
+    return bad("representative_cutoff", p.representative_cutoff, "in (0, 1]");
+  if (!(std::isfinite(p.max_roughness) && p.max_roughness > 0.0 && p.max_roughness <= 10.0))
+    return bad("max_roughness", p.max_roughness, "in (0, 10]");
   if (!(std::isfinite(p.max_gap_factor) && p.max_gap_factor >= 0.0 && p.max_gap_factor <= 100.0))
     return bad("max_gap_factor", p.max_gap_factor, "0 (off) or in (0, 100]");
   if (!(std::isfinite(p.target_gap_factor) && p.target_gap_factor >= 0.0 && p.target_gap_factor <= 100.0))

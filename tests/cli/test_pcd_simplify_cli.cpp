@@ -249,6 +249,9 @@ TEST_F(Cli, BadParametersAreUsageErrors)
   expectRefused(in + out + " --threads -2", 2, none, "--threads");
   expectRefused(in + out + " --radius-cap 0", 2, none, "radius_cap_factor");
   expectRefused(in + out + " --adapt-factor 0.5", 2, none, "adaptive_factor");
+  expectRefused(in + out + " --rep-offset 0", 2, none, "max_representative_offset");
+  expectRefused(in + out + " --rep-cutoff 1.5", 2, none, "representative_cutoff");
+  expectRefused(in + out + " --max-roughness 0", 2, none, "max_roughness");
   expectRefused(in + out + " --error-form fancy", 2, none, "--error-form");
   expectRefused(in + out + " --target-ratio 1.5", 2, none, "--target-ratio");
   expectRefused(in + out + " --target-size 0", 2, none, "--target-size");

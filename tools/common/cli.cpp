@@ -74,6 +74,10 @@ bool applyFilterFlag(const std::string& flag, const std::function<std::string()>
     p.radius_cap_factor = parseDoubleFlag(flag, value());
   else if (flag == "--rep-offset")
     p.max_representative_offset = parseDoubleFlag(flag, value());
+  else if (flag == "--rep-cutoff")
+    p.representative_cutoff = parseDoubleFlag(flag, value());
+  else if (flag == "--max-roughness")
+    p.max_roughness = parseDoubleFlag(flag, value());
   else if (flag == "--max-gap")
     p.max_gap_factor = parseDoubleFlag(flag, value());
   else if (flag == "--target-gap")
@@ -119,6 +123,13 @@ std::string filterFlagsHelp()
      << "                      (default " << d.radius_cap_factor << ")\n"
      << "  --rep-offset F      the optimised point stands for its ball when within F × r of the centre,\n"
      << "                      else the centre; the paper's rule is 1; in (0, 1] (default " << d.max_representative_offset << ")\n"
+     << "  --rep-cutoff F      the optimised point moves from the centre only along the directions whose\n"
+     << "                      eigenvalue is above F × the largest of its quadric; in (0, 1] (default "
+     << d.representative_cutoff << ";\n"
+     << "                      E(r) uses 0.001)\n"
+     << "  --max-roughness F   a ball whose points scatter about their planes by more than F × r (RMS)\n"
+     << "                      keeps its centre, an input point; in (0, 10] (default " << d.max_roughness
+     << "; 2 = never)\n"
      << "  --max-gap G         no input point farther than G × the radius cap from the output: points\n"
      << "                      left farther become output points; 0 = off (the paper's method);\n"
      << "                      0 or in (0, 100] (default " << d.max_gap_factor << ")\n"

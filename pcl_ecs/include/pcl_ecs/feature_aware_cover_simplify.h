@@ -78,6 +78,10 @@ public:
    * the centre, else the centre (the paper: 1). */
   void setMaxRepresentativeOffset(double fraction) { params_.max_representative_offset = fraction; }
   double getMaxRepresentativeOffset() const { return params_.max_representative_offset; }
+  void setRepresentativeCutoff(double fraction) { params_.representative_cutoff = fraction; }
+  double getRepresentativeCutoff() const { return params_.representative_cutoff; }
+  void setMaxRoughness(double fraction) { params_.max_roughness = fraction; }
+  double getMaxRoughness() const { return params_.max_roughness; }
   /** \brief No input point farther than factor × the radius cap from the output; 0 = off (see
    * Parameters::max_gap_factor; target-size mode: setTargetGapFactor). */
   void setMaxGapFactor(double factor) { params_.max_gap_factor = factor; }

@@ -80,6 +80,31 @@ struct Parameters
    * fandisk, the surface deviation too (docs/RESULTS.md). */
   double max_representative_offset = 0.5;
 
+  /** \brief The representative's own pseudo-inverse cutoff: the ball's point is the minimiser of
+   * its quadric (eq. 13) over the directions whose eigenvalue is above this fraction of the
+   * largest, and stays at the centre along the others. E(r) keeps the finer cutoff of
+   * stages/quadric.h (1e-3), so the radius is the paper's. Range: (0, 1] (1: the centre itself).
+   * Default 0.05: on a curved or noisy patch the planes' normals differ only a little, the weak
+   * directions of the quadric are tangential and ill-conditioned (noise in the normals moves the
+   * minimiser along the surface by up to half the radius); holding them at the centre keeps the
+   * output as evenly spread as the centres while the strong directions (across the surface, and
+   * across an edge) still move the point onto the fitted surface. Surface deviation 1-8% lower at
+   * the same output size on the bunny, fandisk, bun000 and mug scans, the same on the terrain
+   * (docs/RESULTS.md, session 14). */
+  double representative_cutoff = 0.05;
+
+  /** \brief A ball whose points scatter about their tangent planes by more than this fraction of
+   * its radius (sqrt(Q(x_min) / Σ w_j) / r, the RMS distance of the optimised point to the
+   * planes, relative to r) is represented by its centre, an input point: there the points do not
+   * describe a surface the planes agree on (vegetation, mixed returns, heavy noise) and an
+   * optimised point lands between the layers. Range: (0, 10] (2 or more: never, Q(x_min) <= Q(c)
+   * and every plane is within 2r of c). Default 0.2: balls on smooth surfaces scatter by a few
+   * hundredths of r (median 0.03 on the fandisk scan, 0.06 on bun000, 0.08 on the bunny; under 4%
+   * of their balls above 0.2), the shared terrain's by 0.25 (two thirds above 0.2), and keeping
+   * their centres brings its surface deviation at 3% kept within 5% of the best peer's
+   * (docs/RESULTS.md, session 14). */
+  double max_roughness = 0.2;
+
   /** \brief The gap bound (stages/gap_fill.h), in the T_err mode and out of core: after the
    * cover, every point farther than this many times the radius cap from all output points becomes
    * an output point of its own, greedily, so that no input point is farther than

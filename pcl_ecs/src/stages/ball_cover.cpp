@@ -178,10 +178,23 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
   if (sol.radius > 0.0)
     w.typical_radius = 0.8 * w.typical_radius + 0.2 * sol.radius / class_scale;
 
-  // The optimised point, unless it lies farther than max_representative_offset × r from c (the
-  // paper's rule is r itself: outside the ball means a sharp feature, and c stands for it).
-  ball.used_centre = !(sol.x_min.norm() < params.max_representative_offset * sol.radius);
-  const Eigen::Vector3d v_offset = ball.used_centre ? Eigen::Vector3d::Zero() : sol.x_min;
+  // The representative: the minimiser of the ball's quadric along its well-determined directions
+  // (representative_cutoff; at the centre along the others), unless the points are too rough to
+  // agree on a surface (max_roughness) or it lies farther than max_representative_offset × r from
+  // c (the paper's rule is r itself: outside the ball means a sharp feature, and c stands for it).
+  ball.roughness = sol.radius > 0.0 && sol.quadric.weight_sum > 0.0
+                       ? std::sqrt(sol.residual / sol.quadric.weight_sum) / sol.radius
+                       : 0.0;
+  Eigen::Vector3d x_rep = Eigen::Vector3d::Zero();
+  ball.used_centre = ball.roughness > params.max_roughness;
+  if (!ball.used_centre)
+  {
+    x_rep = params.representative_cutoff == kQuadricCutoff
+                ? sol.x_min
+                : minimizeQuadric(sol.quadric, params.representative_cutoff).x;
+    ball.used_centre = !(x_rep.norm() < params.max_representative_offset * sol.radius);
+  }
+  const Eigen::Vector3d v_offset = ball.used_centre ? Eigen::Vector3d::Zero() : x_rep;
   ball.representative = centre + v_offset;
 
   // Members: the non-feature points within r (c among them, at distance 0).

@@ -162,6 +162,7 @@ RadiusEvaluation evaluateRadius(const CandidatePlanes& planes, double r, double 
   q.weight_sum = sum[10];
   ev.minimum = minimizeQuadric(q);
   ev.weight_sum = q.weight_sum;
+  ev.quadric = q;
   ev.error = errorOf(ev.minimum, q.weight_sum, L, form);
   return ev;
 }
@@ -202,6 +203,8 @@ RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d&
     sol.radius = ev.radius;
     sol.error = ev.error;
     sol.x_min = ev.minimum.x;
+    sol.residual = std::max(0.0, ev.minimum.value);
+    sol.quadric = ev.quadric;
   };
 
   // E grows roughly like a power of r (like r² on a smooth surface): each probe aims at the radius

@@ -547,6 +547,7 @@ std::string fingerprintOf(const std::string& input, const Parameters& p, std::ui
      << " mtime=" << stamp.mtime << " terr=" << p.error_threshold << " alpha=" << p.feature_factor
      << " k=" << p.k_neighbors << " form=" << toString(p.error_form) << " adaptive=" << p.adaptive
      << " af=" << p.adaptive_factor << " cap=" << p.radius_cap_factor << " rep=" << p.max_representative_offset
+     << " repcut=" << p.representative_cutoff << " rough=" << p.max_roughness
      << " gap=" << p.max_gap_factor
      << " seed=" << p.seed << " mem=" << memory_limit;
   return os.str();

@@ -60,6 +60,7 @@ struct CoverBall
   double error = 0.0;
   Eigen::Vector3d representative = Eigen::Vector3d::Zero();
   bool used_centre = false;
+  double roughness = 0.0;  ///< sqrt(Q(x_min) / sum of weights) / r (Parameters::max_roughness)
   int attribute_source = -1;  ///< member nearest to the representative (a real input point)
   Eigen::Vector3f normal = Eigen::Vector3f::UnitZ();  ///< averaged over the ball, c's sign
   std::size_t replaced = 0;   ///< points whose owner is this ball

@@ -52,6 +52,7 @@ struct RadiusEvaluation
   double error = 0.0;
   QuadricMinimum minimum;
   double weight_sum = 0.0;
+  Quadric quadric;  ///< eq. 13 at this radius (relative to the centre)
 };
 
 /** \brief The tangent planes of a ball's candidates as the terms each adds to eq. 13 (before the
@@ -98,6 +99,8 @@ struct RadiusSolution
   double radius = 0.0;   ///< r; 0 when the ball holds its centre alone
   double error = 0.0;    ///< E(r) <= tolerance
   Eigen::Vector3d x_min = Eigen::Vector3d::Zero();  ///< offset from the centre
+  double residual = 0.0;  ///< Q(x_min) >= 0
+  Quadric quadric;        ///< eq. 13 at r, for a representative with another cutoff
   int evaluations = 0;   ///< how many E(r) were computed
 };
 
