@@ -63,6 +63,22 @@ inline Cloud::Ptr randomPlane(int n, double s, std::uint64_t seed)
   return c;
 }
 
+/** n points uniform on [-0.5, 0.5]² in x, y; z Gaussian of deviation `smooth_noise` where x < 0 and
+ * uniform in [-rough_depth, rough_depth] where x >= 0 (a layer of scattered returns, like
+ * vegetation over ground). */
+inline Cloud::Ptr halfRoughPlane(int n, double smooth_noise, double rough_depth, std::uint64_t seed)
+{
+  Rng rng(seed);
+  auto c = std::make_shared<Cloud>();
+  for (int i = 0; i < n; ++i)
+  {
+    const double x = rng.uniform(-0.5, 0.5), y = rng.uniform(-0.5, 0.5);
+    const double z = x < 0.0 ? smooth_noise * rng.normal() : rng.uniform(-rough_depth, rough_depth);
+    c->push_back(toPoint({x, y, z}));
+  }
+  return c;
+}
+
 /** n points on the sphere of radius rho centred at `centre`, on a Fibonacci spiral (nearly
  * uniform), each moved along the radius by Gaussian noise of standard deviation `noise`. */
 inline Cloud::Ptr fibonacciSphere(int n, double rho, double noise = 0.0, std::uint64_t seed = 1,

@@ -165,25 +165,6 @@ TEST(BallCover, RepresentativeOffsetIsBounded)
   }
 }
 
-namespace
-{
-/// n points uniform on [-0.5, 0.5]² in x, y; z Gaussian of deviation `smooth_noise` where x < 0 and
-/// uniform in [-rough_depth, rough_depth] where x >= 0 (a layer of scattered returns, like
-/// vegetation over ground).
-Cloud::Ptr halfRoughPlane(int n, double smooth_noise, double rough_depth, std::uint64_t seed)
-{
-  Rng rng(seed);
-  auto c = std::make_shared<Cloud>();
-  for (int i = 0; i < n; ++i)
-  {
-    const double x = rng.uniform(-0.5, 0.5), y = rng.uniform(-0.5, 0.5);
-    const double z = x < 0.0 ? smooth_noise * rng.normal() : rng.uniform(-rough_depth, rough_depth);
-    c->push_back(toPoint({x, y, z}));
-  }
-  return c;
-}
-}  // namespace
-
 // Parameters::representative_cutoff: on a noisy plane the quadric's tangential directions are weak
 // (the normals differ by a few degrees); with the E(r) cutoff (1e-3) they move the optimised point
 // along the plane, with the default (0.05) it moves across the plane only.

@@ -59,6 +59,27 @@ TEST(Filter, PlaneHasNoFeaturesAndRepresentativesOnThePlane)
   EXPECT_LT(out.size(), cloud->size() / 5);
 }
 
+// The summary counts the balls too rough for a point of their own (Parameters::max_roughness):
+// some on a plane half covered by a scattered layer, among the balls that use their centre; none
+// on a clean plane, and none when the limit is off. The limit leaves the cover as it is.
+TEST(Filter, SummaryCountsRoughBalls)
+{
+  const auto rough = halfRoughPlane(8000, 0.0005, 0.03, 6);
+  Filter a, b, c;
+  run(rough, a);
+  b.setMaxRoughness(10.0);
+  run(rough, b);
+  run(randomPlane(8000, 1.0, 2), c);
+  const auto& sa = a.getResult().summary;
+  const auto& sb = b.getResult().summary;
+  EXPECT_GT(sa.rough_balls, sa.balls / 50);  // 163 of 4,050 (many rough points are features)
+  EXPECT_LE(sa.rough_balls, sa.centre_fallbacks);
+  EXPECT_EQ(sb.rough_balls, 0u);
+  EXPECT_EQ(sa.balls, sb.balls);
+  EXPECT_GT(sa.centre_fallbacks, sb.centre_fallbacks);
+  EXPECT_EQ(c.getResult().summary.rough_balls, 0u);
+}
+
 TEST(Filter, SphereCurvatureAndRepresentatives)
 {
   const double rho = 1.5;

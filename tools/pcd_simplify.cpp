@@ -380,6 +380,7 @@ nlohmann::json statsJson(const Options& o, const RunOutput& run, const pcl::PCLP
                  {"balls", s.balls},
                  {"output_points", s.output_points},
                  {"centre_fallbacks", s.centre_fallbacks},
+                 {"rough_balls", s.rough_balls},
                  {"gap_points", s.gap_points},
                  {"target_iterations", s.target_iterations}};
   j["geometry"] = {{"bbox_diagonal", s.bbox_diagonal},

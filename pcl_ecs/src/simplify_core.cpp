@@ -370,7 +370,10 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
   s.max_error = out.cover.max_error;
   s.radius_evaluations = out.cover.radius_evaluations;
   for (const auto& b : out.cover.balls)
+  {
     s.centre_fallbacks += b.used_centre ? 1 : 0;
+    s.rough_balls += b.roughness > params.max_roughness ? 1 : 0;
+  }
   return Status::Ok;
 }
 

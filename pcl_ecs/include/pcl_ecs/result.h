@@ -56,6 +56,7 @@ struct Summary
   std::size_t balls = 0;             ///< n, the number of representatives
   std::size_t output_points = 0;     ///< m + n
   std::size_t centre_fallbacks = 0;  ///< balls whose representative is their centre
+  std::size_t rough_balls = 0;       ///< of those, balls too rough for a point of their own (max_roughness)
   std::size_t gap_points = 0;        ///< of the balls, those of radius 0 added to close gaps (gap_fill.h)
   double max_gap = 0;                ///< the gap bound used (input units; 0: off)
   double feature_threshold = 0;      ///< δ of eq. 4 (input units)
