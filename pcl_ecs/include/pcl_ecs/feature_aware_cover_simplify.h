@@ -78,8 +78,12 @@ public:
    * the centre, else the centre (the paper: 1). */
   void setMaxRepresentativeOffset(double fraction) { params_.max_representative_offset = fraction; }
   double getMaxRepresentativeOffset() const { return params_.max_representative_offset; }
+  /** \brief The optimised point moves from the centre only along the directions of the ball's
+   * quadric whose eigenvalue is above this fraction of the largest (Parameters::representative_cutoff). */
   void setRepresentativeCutoff(double fraction) { params_.representative_cutoff = fraction; }
   double getRepresentativeCutoff() const { return params_.representative_cutoff; }
+  /** \brief A ball whose points scatter about their tangent planes by more than this fraction of
+   * its radius keeps its centre (Parameters::max_roughness). */
   void setMaxRoughness(double fraction) { params_.max_roughness = fraction; }
   double getMaxRoughness() const { return params_.max_roughness; }
   /** \brief No input point farther than factor × the radius cap from the output; 0 = off (see
