@@ -315,13 +315,15 @@ TEST(Filter, DegenerateCloudsAreRefusedCleanly)
 TEST(Filter, BadParameterGivesEmptyOutput)
 {
   auto cloud = fibonacciSphere(2000, 1.0);
-  for (int which = 0; which < 4; ++which)
+  for (int which = 0; which < 6; ++which)
   {
     Filter f;
     if (which == 0) f.setErrorThreshold(-1.0);
     if (which == 1) f.setFeatureFactor(std::numeric_limits<double>::quiet_NaN());
     if (which == 2) f.setNeighborhoodSize(0);
     if (which == 3) f.setUseInputNormals(true);  // PointXYZ carries no normals
+    if (which == 4) f.setRepresentativeCutoff(0.0);
+    if (which == 5) f.setMaxRoughness(-1.0);
     Cloud out;
     out.push_back(pcl::PointXYZ(0, 0, 0));
     f.setInputCloud(cloud);
