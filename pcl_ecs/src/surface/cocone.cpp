@@ -1,6 +1,8 @@
 // cocone.cpp — see cocone.h for the steps.
 #include <pcl_ecs/surface/cocone.h>
 
+#include "../radix_sort.h"
+
 #include <CGAL/Delaunay_triangulation_3.h>
 #include <CGAL/Delaunay_triangulation_cell_base_3.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -61,7 +63,9 @@ public:
     for (std::uint32_t t = 0; t < tris.size(); ++t)
       for (int k = 0; k < 3; ++k)
         pairs_.emplace_back(edgeKey(tris[t][k], tris[t][(k + 1) % 3]), t);
-    std::sort(pairs_.begin(), pairs_.end());
+    // By key, stably: the pairs are made in triangle order, so (key, triangle) order, as a sort
+    // of the pairs would give, in a few linear passes.
+    radixSortStable(pairs_, [](const Pair& p) { return p.first; });
     tri_group_.assign(tris.size() * 3, 0);
     for (std::uint32_t p = 0; p < pairs_.size(); ++p)
     {
@@ -300,7 +304,14 @@ MeshTopology analyzeTopology(std::size_t num_points, const std::vector<Triangle>
     }
   }
   topo.used_vertices = static_cast<std::size_t>(std::count(used.begin(), used.end(), 1));
-  std::sort(dir.begin(), dir.end());
+  // By (edge, direction), as a sort of the pairs would give (equal pairs are equal values); the
+  // direction fits below the key while the smaller index of an edge stays under 2^31.
+  if (num_points <= (std::size_t{1} << 31))
+    radixSortStable(dir, [](const std::pair<std::uint64_t, int>& d) {
+      return (d.first << 1) | (d.second > 0 ? 1u : 0u);
+    });
+  else
+    std::sort(dir.begin(), dir.end());
   UnionFind loops(num_points);
   std::vector<char> on_boundary(num_points, 0);
   for (std::size_t i = 0; i < dir.size();)
@@ -1170,7 +1181,9 @@ std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n)
         const std::uint32_t a = out[t][k], b = out[t][(k + 1) % 3];
         de.emplace_back(edgeKey(a, b), t, a < b ? 1 : -1);
       }
-    std::sort(de.begin(), de.end());
+    // By edge, stably: made in triangle order, and a triangle has an edge once, so this is the
+    // (edge, triangle) order a sort of the tuples would give.
+    radixSortStable(de, [](const std::tuple<std::uint64_t, std::uint32_t, int>& e) { return std::get<0>(e); });
     for (std::size_t i = 0; i < de.size();)
     {
       std::size_t j = i;
