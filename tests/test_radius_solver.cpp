@@ -145,8 +145,8 @@ TEST(RadiusSolver, PaperFormIsNormalizedTimesRootWeightSum)
   AllPoints src(*f.cloud, centre);
   const auto n = pcl_ecs::evaluateRadius(f.samples(), centre, src.all, 0.1, 3.0, pcl_ecs::ErrorForm::Normalized);
   const auto p = pcl_ecs::evaluateRadius(f.samples(), centre, src.all, 0.1, 3.0, pcl_ecs::ErrorForm::Paper);
-  ASSERT_GT(n.weight_sum, 0.0);
-  EXPECT_NEAR(p.error, n.error * std::sqrt(n.weight_sum), 1e-12 + 1e-9 * p.error);
+  ASSERT_GT(n.quadric.weight_sum, 0.0);
+  EXPECT_NEAR(p.error, n.error * std::sqrt(n.quadric.weight_sum), 1e-12 + 1e-9 * p.error);
 }
 
 // The normalized error is scale-free: scaling the cloud scales r and keeps E.
@@ -175,9 +175,9 @@ TEST(RadiusSolver, PortableAndAvx2SumsGiveTheSameBits)
     const auto portable = pcl_ecs::evaluateRadius(f.samples(), centre, src.all, r, 3.0, pcl_ecs::ErrorForm::Normalized);
     pcl_ecs::detail::allowAvx2(true);
     const auto wide = pcl_ecs::evaluateRadius(f.samples(), centre, src.all, r, 3.0, pcl_ecs::ErrorForm::Normalized);
-    EXPECT_GT(portable.weight_sum, 0.0);
+    EXPECT_GT(portable.quadric.weight_sum, 0.0);
     EXPECT_EQ(portable.error, wide.error) << "r " << r;
-    EXPECT_EQ(portable.weight_sum, wide.weight_sum) << "r " << r;
+    EXPECT_EQ(portable.quadric.weight_sum, wide.quadric.weight_sum) << "r " << r;
     EXPECT_EQ(portable.minimum.x, wide.minimum.x) << "r " << r;
   }
 }

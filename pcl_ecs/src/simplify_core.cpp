@@ -372,7 +372,7 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
   for (const auto& b : out.cover.balls)
   {
     s.centre_fallbacks += b.used_centre ? 1 : 0;
-    s.rough_balls += b.roughness > params.max_roughness ? 1 : 0;
+    s.rough_balls += tooRough(b, params) ? 1 : 0;
   }
   return Status::Ok;
 }

@@ -186,7 +186,7 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
                        ? std::sqrt(sol.residual / sol.quadric.weight_sum) / sol.radius
                        : 0.0;
   Eigen::Vector3d x_rep = Eigen::Vector3d::Zero();
-  ball.used_centre = ball.roughness > params.max_roughness;
+  ball.used_centre = tooRough(ball, params);
   if (!ball.used_centre)
   {
     x_rep = params.representative_cutoff == kQuadricCutoff

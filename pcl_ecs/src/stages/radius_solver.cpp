@@ -161,7 +161,6 @@ RadiusEvaluation evaluateRadius(const CandidatePlanes& planes, double r, double 
   q.c = sum[9];
   q.weight_sum = sum[10];
   ev.minimum = minimizeQuadric(q);
-  ev.weight_sum = q.weight_sum;
   ev.quadric = q;
   ev.error = errorOf(ev.minimum, q.weight_sum, L, form);
   return ev;

@@ -67,6 +67,12 @@ struct CoverBall
   std::size_t evaluations = 0;  ///< E(r) computed by the radius solve
 };
 
+/** \brief Parameters::max_roughness: a ball this rough keeps its centre as its representative. */
+inline bool tooRough(const CoverBall& ball, const Parameters& params)
+{
+  return ball.roughness > params.max_roughness;
+}
+
 /** \brief The cover. */
 struct CoverOutput
 {

@@ -51,8 +51,7 @@ struct RadiusEvaluation
   double radius = 0.0;
   double error = 0.0;
   QuadricMinimum minimum;
-  double weight_sum = 0.0;
-  Quadric quadric;  ///< eq. 13 at this radius (relative to the centre)
+  Quadric quadric;  ///< eq. 13 at this radius (relative to the centre; its weight_sum is Σ w_j)
 };
 
 /** \brief The tangent planes of a ball's candidates as the terms each adds to eq. 13 (before the
