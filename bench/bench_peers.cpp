@@ -8,6 +8,7 @@
 //               [--inputs bunny,fandisk] [--workdir DIR] [--methods pcl_ecs]  (rerun some, merge into OUT)
 #include "bench_common.h"
 
+#include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/eval/quality_metrics.h>
 #include <pcl_ecs/feature_aware_cover_simplify.h>
 #include <pcl_ecs/io/cloud_io.h>
@@ -64,7 +65,7 @@ Cloud::Ptr loadFinite(const std::string& path)
   pcl::PCLPointCloud2 blob;
   pcl_ecs::io::readCloud(path, blob);
   Cloud all;
-  pcl::fromPCLPointCloud2(blob, all);
+  pcl_ecs::io::fromCloud(blob, all);
   auto c = std::make_shared<Cloud>();
   for (const auto& p : all)
     if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
@@ -296,7 +297,7 @@ int main(int argc, char** argv)
       pcl::PolygonMesh pm;
       pcl::io::loadPLYFile(spec.mesh, pm);
       Cloud v;
-      pcl::fromPCLPointCloud2(pm.cloud, v);
+      pcl_ecs::io::fromCloud(pm.cloud, v);
       for (const auto& p : v)
         mesh.vertices.emplace_back(p.x, p.y, p.z);
       for (const auto& poly : pm.polygons)

@@ -6,6 +6,7 @@
 //   bench_surface SHARED_DATA_DIR OUT.json [--only NAME]
 #include "mesh_sampler.h"
 
+#include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/eval/quality_metrics.h>
 #include <pcl_ecs/feature_aware_cover_simplify.h>
 #include <pcl_ecs/surface/cocone.h>
@@ -60,7 +61,7 @@ eval::TriangleMesh loadReference(const std::string& ply)
   if (pcl::io::loadPLYFile(ply, pm) < 0)
     throw std::runtime_error(ply + ": cannot read");
   pcl::PointCloud<pcl::PointXYZ> v;
-  pcl::fromPCLPointCloud2(pm.cloud, v);
+  pcl_ecs::io::fromCloud(pm.cloud, v);
   eval::TriangleMesh m;
   for (const auto& p : v)
     m.vertices.emplace_back(p.x, p.y, p.z);
@@ -151,7 +152,7 @@ MethodResult fromPolygonMesh(const std::string& method, const pcl::PolygonMesh& 
   r.method = method;
   r.seconds = seconds;
   pcl::PointCloud<pcl::PointXYZ> v;
-  pcl::fromPCLPointCloud2(pm.cloud, v);
+  pcl_ecs::io::fromCloud(pm.cloud, v);
   r.vertices = fromCloud(v);
   for (const auto& poly : pm.polygons)
     for (std::size_t k = 1; k + 1 < poly.vertices.size(); ++k)

@@ -8,6 +8,7 @@
 #include "bench_common.h"
 #include "mesh_sampler.h"
 
+#include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/feature_aware_cover_simplify.h>
 #include <pcl_ecs/io/cloud_io.h>
 
@@ -89,7 +90,7 @@ int main(int argc, char** argv)
     pcl::PCLPointCloud2 blob;
     pcl_ecs::io::readCloud(cloud_path, blob);
     cloud = std::make_shared<Cloud>();
-    pcl::fromPCLPointCloud2(blob, *cloud);
+    pcl_ecs::io::fromCloud(blob, *cloud);
     source = cloud_path;
   }
   const std::size_t n = cloud->size();

@@ -2,6 +2,7 @@
 // large test scans), with optional Gaussian noise along the face normal.
 #pragma once
 
+#include <pcl_ecs/io/cloud_convert.h>
 #include <cmath>
 #include <cstdint>
 #include <random>
@@ -30,7 +31,7 @@ inline Triangles loadTriangles(const std::string& ply)
   if (pcl::io::loadPLYFile(ply, mesh) < 0)
     throw std::runtime_error(ply + ": cannot read the mesh");
   pcl::PointCloud<pcl::PointXYZ> v;
-  pcl::fromPCLPointCloud2(mesh.cloud, v);
+  pcl_ecs::io::fromCloud(mesh.cloud, v);
   Triangles t;
   double total = 0.0;
   for (const auto& poly : mesh.polygons)

@@ -1,4 +1,5 @@
 // Cocone: building blocks on exact cases, then the surfaces of analytic shapes and a real scan.
+#include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/surface/cocone.h>
 
 #include "synthetic_shapes.h"
@@ -400,7 +401,7 @@ TEST(CoconeScan, BunnyIsAManifoldCloseToTheReference)
   EXPECT_GE(static_cast<double>(t.used_vertices), 0.999 * static_cast<double>(pts.size()));
 
   pcl::PointCloud<pcl::PointXYZ> rv;
-  pcl::fromPCLPointCloud2(ref_pm.cloud, rv);
+  pcl_ecs::io::fromCloud(ref_pm.cloud, rv);
   pcl_ecs::eval::TriangleMesh ref, mine;
   for (const auto& p : rv)
     ref.vertices.emplace_back(p.x, p.y, p.z);

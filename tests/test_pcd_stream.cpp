@@ -2,6 +2,7 @@
 // own reader gives; the writer's files are read back by PCL; bad files are refused with a message.
 #include "cli/cli_fixture.h"
 
+#include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/pcd_stream.h>
 
 #include <cstdlib>
@@ -130,7 +131,7 @@ TEST_F(PcdStream, WriterOutputIsReadByPclAndCommittedOnlyOnCommit)
   ASSERT_EQ(pcl::io::loadPCDFile(path("out.pcd"), back, origin, orientation), 0);
   EXPECT_EQ(back.width, 3000u);
   pcl::PointCloud<pcl::PointXYZRGBNormal> read;
-  pcl::fromPCLPointCloud2(back, read);
+  pcl_ecs::io::fromCloud(back, read);
   ASSERT_EQ(read.size(), cloud.size());
   for (std::size_t i = 0; i < cloud.size(); ++i)
   {

@@ -2,9 +2,10 @@
 // are simplified by worker threads with the filter and handed to a sink (directory, TCP, stdout)
 // in their original order. Configured by a launch file (YAML) and/or flags.
 #include "common/cli.h"
-#include "common/point_dispatch.h"
+#include "common/cloud_simplify.h"
 #include "node/node_io.h"
 
+#include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/feature_aware_cover_simplify.h>
 #include <pcl_ecs/io/cloud_io.h>
 #include <pcl_ecs/version.h>
@@ -356,29 +357,15 @@ Outcome process(const Frame& f, const Parameters& params)
 {
   pcl::PCLPointCloud2 blob;
   io::parsePcd(f.bytes, blob);
-  std::string dropped;
-  const tools::PointKind kind = tools::choosePointKind(blob, dropped);
   Outcome out;
   out.name = f.name;
   out.arrived = f.arrived;
   out.points_in = static_cast<std::size_t>(blob.width) * blob.height;
-  tools::dispatchPointKind(kind, [&](auto tag) {
-    using PointT = decltype(tag);
-    auto cloud = std::make_shared<pcl::PointCloud<PointT>>();
-    pcl::fromPCLPointCloud2(blob, *cloud);
-    FeatureAwareCoverSimplify<PointT> filter;
-    filter.setParameters(params);
-    filter.setInputCloud(cloud);
-    pcl::PointCloud<PointT> simplified;
-    filter.filter(simplified);
-    if (!filter.getResult().error.empty())
-      throw std::runtime_error(filter.getResult().error);
-    pcl::PCLPointCloud2 result;
-    pcl::toPCLPointCloud2(simplified, result);
-    out.bytes = serializeBinaryPcd(result);
-    out.points_out = simplified.size();
-    return 0;
-  });
+  const tools::CloudRun run = tools::simplifyCloud(blob, params, tools::CloudRunOptions{});
+  if (!run.result.error.empty())
+    throw std::runtime_error(run.result.error);
+  out.bytes = serializeBinaryPcd(run.output);
+  out.points_out = run.result.labels.size();
   out.ok = true;
   return out;
 }

@@ -3,6 +3,7 @@
 // noise, written chunk by chunk with the streaming PCD writer (any size, constant memory).
 #include "common/cli.h"
 
+#include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/pcd_stream.h>
 #include <pcl_ecs/version.h>
 
@@ -115,7 +116,7 @@ int run(int argc, char** argv)
   if (pcl::io::loadPLYFile(pos[0], mesh) < 0 || mesh.polygons.empty())
     throw ToolError(kExitInput, pos[0] + ": cannot read a mesh with faces from it");
   pcl::PointCloud<pcl::PointXYZ> v;
-  pcl::fromPCLPointCloud2(mesh.cloud, v);
+  pcl_ecs::io::fromCloud(mesh.cloud, v);
   std::vector<Tri> tris;
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
   for (const auto& poly : mesh.polygons)

@@ -2,8 +2,9 @@
 // covered by error-bounded balls, one optimised point per ball.
 #include "common/cli.h"
 #include "common/mesh_cli.h"
-#include "common/point_dispatch.h"
+#include "common/cloud_simplify.h"
 
+#include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/feature_aware_cover_simplify.h>
 #include <pcl_ecs/io/cloud_io.h>
 #include <pcl_ecs/stream/out_of_core.h>
@@ -252,7 +253,8 @@ Options parseArgs(int argc, char** argv, bool& done)
 nlohmann::json bboxJson(const pcl::PCLPointCloud2& blob)
 {
   pcl::PointCloud<pcl::PointXYZ> xyz;
-  pcl::fromPCLPointCloud2(blob, xyz);
+  const Eigen::Vector3d centre = io::boundingBoxCentre(blob);  // float keeps UTM precise around it
+  pcl_ecs::io::fromCloud(blob, xyz, centre);
   double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
                   std::numeric_limits<double>::infinity()};
   double hi[3] = {-lo[0], -lo[1], -lo[2]};
@@ -262,7 +264,7 @@ nlohmann::json bboxJson(const pcl::PCLPointCloud2& blob)
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
       continue;
     ++finite;
-    const double v[3] = {p.x, p.y, p.z};
+    const double v[3] = {p.x + centre.x(), p.y + centre.y(), p.z + centre.z()};
     for (int k = 0; k < 3; ++k)
     {
       lo[k] = std::min(lo[k], v[k]);
@@ -274,74 +276,11 @@ nlohmann::json bboxJson(const pcl::PCLPointCloud2& blob)
   return {{"min", {lo[0], lo[1], lo[2]}}, {"max", {hi[0], hi[1], hi[2]}}};
 }
 
-/// Append a uint8 field 'ecs_label' (1 feature, 2 representative) to every point of `blob`.
-void addLabels(pcl::PCLPointCloud2& blob, const std::vector<PointLabel>& labels)
-{
-  const std::size_t n = static_cast<std::size_t>(blob.width) * blob.height;
-  const std::uint32_t old_step = blob.point_step;
-  pcl::PCLPointField f;
-  f.name = "ecs_label";
-  f.offset = old_step;
-  f.datatype = pcl::PCLPointField::UINT8;
-  f.count = 1;
-  std::vector<std::uint8_t> data(n * (old_step + 1));
-  for (std::size_t i = 0; i < n; ++i)
-  {
-    std::memcpy(data.data() + i * (old_step + 1), blob.data.data() + i * old_step, old_step);
-    data[i * (old_step + 1) + old_step] = static_cast<std::uint8_t>(labels[i]);
-  }
-  blob.fields.push_back(f);
-  blob.point_step = old_step + 1;
-  blob.row_step = blob.point_step * blob.width;
-  blob.data = std::move(data);
-}
-
 struct RunOutput
 {
   pcl::PCLPointCloud2 output, features;
   Result result;
-  std::string point_type, dropped;
 };
-
-template <typename PointT>
-RunOutput simplifyAs(const pcl::PCLPointCloud2& blob, const Options& o, const ProgressCallback& progress)
-{
-  RunOutput r;
-  auto cloud = std::make_shared<pcl::PointCloud<PointT>>();
-  pcl::fromPCLPointCloud2(blob, *cloud);
-  FeatureAwareCoverSimplify<PointT> filter;
-  Parameters params = o.params;
-  if (o.target_ratio > 0.0)
-  {
-    std::size_t finite = 0;
-    for (const auto& p : *cloud)
-      finite += (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) ? 1 : 0;
-    params.target_size = std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(o.target_ratio * finite)));
-  }
-  filter.setParameters(params);
-  filter.setProgressCallback(progress);
-  filter.setInputCloud(cloud);
-  pcl::PointCloud<PointT> out;
-  filter.filter(out);
-  r.result = filter.getResult();
-  if (!r.result.error.empty())
-  {
-    const bool internal = r.result.error.rfind("internal error", 0) == 0;
-    throw ToolError(internal ? kExitInternal : kExitInput, o.input + ": " + r.result.error);
-  }
-  pcl::toPCLPointCloud2(out, r.output);
-  if (!o.features.empty())
-  {
-    pcl::PointCloud<PointT> feats;
-    for (std::size_t i = 0; i < out.size(); ++i)
-      if (r.result.labels[i] == PointLabel::Feature)
-        feats.push_back(out[i]);
-    pcl::toPCLPointCloud2(feats, r.features);
-  }
-  if (o.labels)
-    addLabels(r.output, r.result.labels);
-  return r;
-}
 
 nlohmann::json statsJson(const Options& o, const RunOutput& run, const pcl::PCLPointCloud2& input)
 {
@@ -353,7 +292,10 @@ nlohmann::json statsJson(const Options& o, const RunOutput& run, const pcl::PCLP
   j["version"] = PCL_ECS_VERSION_STRING;
   j["input"] = o.input;
   j["output"] = o.output;
-  j["point_type"] = run.point_type;
+  nlohmann::json fields = nlohmann::json::array();
+  for (const auto& f : run.output.fields)
+    fields.push_back(f.name);
+  j["fields"] = fields;
   j["parameters"] = {{"error_threshold", p.error_threshold},
                      {"error_threshold_used", s.error_threshold},
                      {"feature_factor", p.feature_factor},
@@ -521,22 +463,25 @@ int runTool(int argc, char** argv)
   {
     throw ToolError(kExitInput, e.what());
   }
-  RunOutput run;
-  const PointKind kind = choosePointKind(input, run.dropped);
-  if (!run.dropped.empty() && !o.quiet)
-    std::fprintf(stderr, "pcd_simplify: %s: no point type holds all fields; dropping %s\n",
-                 o.input.c_str(), run.dropped.c_str());
-  if (o.params.use_input_normals && kind != PointKind::Normal && kind != PointKind::XYZRGBNormal &&
-      kind != PointKind::XYZINormal)
+  if (o.params.use_input_normals && (io::fieldIndex(input.fields, "normal_x") < 0 ||
+                                     io::fieldIndex(input.fields, "normal_y") < 0 ||
+                                     io::fieldIndex(input.fields, "normal_z") < 0))
     throw ToolError(kExitInput, o.input + ": --use-input-normals given but the file has no normals");
 
   ProgressLine progress("pcd_simplify", !o.quiet && stderrIsTerminal());
-  const std::string point_type = pointKindName(kind);
-  RunOutput r = dispatchPointKind(kind, [&](auto tag) {
-    return simplifyAs<decltype(tag)>(input, o, progress.callback());
-  });
+  CloudRunOptions run_options;
+  run_options.target_ratio = o.target_ratio;
+  run_options.features = !o.features.empty();
+  run_options.labels = o.labels;
+  run_options.progress = progress.callback();
+  CloudRun cloud_run = simplifyCloud(input, o.params, run_options);
   progress.finish();
-  r.point_type = point_type;
+  if (!cloud_run.result.error.empty())
+  {
+    const bool internal = cloud_run.result.error.rfind("internal error", 0) == 0;
+    throw ToolError(internal ? kExitInternal : kExitInput, o.input + ": " + cloud_run.result.error);
+  }
+  RunOutput r{std::move(cloud_run.output), std::move(cloud_run.features), std::move(cloud_run.result)};
 
   // The surface of the simplified cloud, when asked for: nothing is written if it fails.
   std::optional<MeshRun> mesh;

@@ -2,6 +2,7 @@
 // surface deviation, coverage, Hausdorff, distance to the mesh, distance from sharp mesh edges.
 #include "common/cli.h"
 
+#include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/eval/quality_metrics.h>
 #include <pcl_ecs/io/cloud_io.h>
 #include <pcl_ecs/version.h>
@@ -39,7 +40,7 @@ pcl::PointCloud<pcl::PointXYZ> load(const std::string& path)
   pcl::PCLPointCloud2 blob;
   io::readCloud(path, blob);
   pcl::PointCloud<pcl::PointXYZ> all, finite;
-  pcl::fromPCLPointCloud2(blob, all);
+  pcl_ecs::io::fromCloud(blob, all);
   for (const auto& p : all)
     if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
       finite.push_back(p);
@@ -52,7 +53,7 @@ eval::TriangleMesh loadMesh(const std::string& path)
   if (pcl::io::loadPolygonFile(path, pm) <= 0 || pm.polygons.empty())
     throw io::FileError(path + ": cannot read a mesh from it");
   pcl::PointCloud<pcl::PointXYZ> v;
-  pcl::fromPCLPointCloud2(pm.cloud, v);
+  pcl_ecs::io::fromCloud(pm.cloud, v);
   eval::TriangleMesh m;
   for (const auto& p : v)
     m.vertices.push_back(p.getVector3fMap().cast<double>());

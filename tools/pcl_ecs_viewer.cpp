@@ -3,6 +3,7 @@
 #include "common/cli.h"
 #include "viewer/viewer_logic.h"
 
+#include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/feature_aware_cover_simplify.h>
 #include <pcl_ecs/io/cloud_io.h>
 #include <pcl_ecs/neighborhood.h>
@@ -64,11 +65,11 @@ Cloud::Ptr loadCloud(const std::string& path, bool* has_rgb = nullptr, std::vect
   for (const auto& f : blob.fields)
     rgb = rgb || f.name == "rgb" || f.name == "rgba";
   if (rgb)
-    pcl::fromPCLPointCloud2(blob, *cloud);
+    pcl_ecs::io::fromCloud(blob, *cloud);
   else
   {
     pcl::PointCloud<pcl::PointXYZ> xyz;
-    pcl::fromPCLPointCloud2(blob, xyz);
+    pcl_ecs::io::fromCloud(blob, xyz);
     pcl::copyPointCloud(xyz, *cloud);
   }
   if (has_rgb)

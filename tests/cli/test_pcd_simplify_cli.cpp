@@ -2,6 +2,7 @@
 // mode, attributes, the stats file, and every bad input with its exit code and no output left.
 #include "cli_fixture.h"
 
+#include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/cloud_io.h>
 
 #include <sys/wait.h>
@@ -123,8 +124,8 @@ TEST_F(Cli, ColourOfTheOrganisedKinectCloudSurvives)
     const auto input = load(in);
     const auto output = load(path(out));
     pcl::PointCloud<pcl::PointXYZRGB> a, b;
-    pcl::fromPCLPointCloud2(input, a);
-    pcl::fromPCLPointCloud2(output, b);
+    pcl_ecs::io::fromCloud(input, a);
+    pcl_ecs::io::fromCloud(output, b);
     std::set<std::uint32_t> colours;
     for (const auto& p : a)
       colours.insert(p.rgba & 0xFFFFFFu);
@@ -287,7 +288,7 @@ TEST_F(Cli, ReadsEveryEncoding)
   const auto ref = load(path("ref.pcd"));
   const auto bunny = load(in);
   pcl::PointCloud<pcl::PointXYZ> pts;
-  pcl::fromPCLPointCloud2(bunny, pts);
+  pcl_ecs::io::fromCloud(bunny, pts);
   std::ostringstream xyz;
   xyz.precision(9);
   for (const auto& p : pts)

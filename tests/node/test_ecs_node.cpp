@@ -2,6 +2,7 @@
 // SIGTERM in the middle, drop-oldest, the directory source and the launch files.
 #include "node/node_io.h"
 
+#include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/cloud_io.h>
 
 #include <arpa/inet.h>
@@ -57,7 +58,7 @@ int frameNumber(const std::string& bytes, std::size_t* points = nullptr)
   pcl::PCLPointCloud2 blob;
   pcl_ecs::io::parsePcd(bytes, blob);
   pcl::PointCloud<pcl::PointXYZI> c;
-  pcl::fromPCLPointCloud2(blob, c);
+  pcl_ecs::io::fromCloud(blob, c);
   if (points)
     *points = c.size();
   if (c.empty())

@@ -3,6 +3,7 @@
 
 #include "common/cli.h"
 
+#include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/cloud_io.h>
 
 #include <pcl/conversions.h>
@@ -86,7 +87,7 @@ MeshRun meshCloud(const pcl::PCLPointCloud2& cloud, const surface::CoconeParamet
 {
   MeshRun run;
   pcl::PointCloud<pcl::PointXYZ> xyz;
-  pcl::fromPCLPointCloud2(cloud, xyz);
+  pcl_ecs::io::fromCloud(cloud, xyz);
   std::vector<Eigen::Vector3d> pts;
   pts.reserve(xyz.size());
   for (const auto& p : xyz)
@@ -99,7 +100,7 @@ MeshRun meshCloud(const pcl::PCLPointCloud2& cloud, const surface::CoconeParamet
   if (hasField(cloud, "rgb") || hasField(cloud, "rgba"))
   {
     pcl::PointCloud<pcl::PointXYZRGB> rgb;
-    pcl::fromPCLPointCloud2(cloud, rgb);
+    pcl_ecs::io::fromCloud(cloud, rgb);
     run.colors.rgb.reserve(run.mesh.source_index.size());
     for (std::uint32_t i : run.mesh.source_index)
       run.colors.rgb.push_back({rgb[i].r, rgb[i].g, rgb[i].b});

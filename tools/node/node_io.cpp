@@ -1,5 +1,7 @@
 #include "node_io.h"
 
+#include <pcl_ecs/io/cloud_io.h>
+
 #include <arpa/inet.h>
 #include <netdb.h>
 #include <netinet/in.h>
@@ -30,20 +32,6 @@ int parsePort(const std::string& s, const std::string& whole)
   return static_cast<int>(v);
 }
 
-const char* pcdType(std::uint8_t dt, int& size)
-{
-  switch (dt)
-  {
-  case pcl::PCLPointField::INT8: size = 1; return "I";
-  case pcl::PCLPointField::UINT8: size = 1; return "U";
-  case pcl::PCLPointField::INT16: size = 2; return "I";
-  case pcl::PCLPointField::UINT16: size = 2; return "U";
-  case pcl::PCLPointField::INT32: size = 4; return "I";
-  case pcl::PCLPointField::UINT32: size = 4; return "U";
-  case pcl::PCLPointField::FLOAT64: size = 8; return "F";
-  default: size = 4; return "F";
-  }
-}
 }  // namespace
 
 Endpoint parseEndpoint(const std::string& text, bool is_source)
@@ -86,54 +74,9 @@ Endpoint parseEndpoint(const std::string& text, bool is_source)
 
 std::string serializeBinaryPcd(const pcl::PCLPointCloud2& c)
 {
-  // A PCD point is its fields packed one after another: copy each field out of the (possibly
-  // padded, aligned) PCL layout into a packed record.
-  std::vector<const pcl::PCLPointField*> fields;
-  for (const auto& f : c.fields)
-    if (f.name != "_" && f.count > 0)
-      fields.push_back(&f);
-  std::sort(fields.begin(), fields.end(), [](auto* a, auto* b) { return a->offset < b->offset; });
-  std::ostringstream h;
-  h << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS";
-  for (auto* f : fields)
-    h << " " << f->name;
-  h << "\nSIZE";
-  std::vector<std::size_t> bytes;
-  std::size_t packed = 0;
-  for (auto* f : fields)
-  {
-    int size = 4;
-    pcdType(f->datatype, size);
-    h << " " << size;
-    bytes.push_back(static_cast<std::size_t>(size) * f->count);
-    packed += bytes.back();
-  }
-  h << "\nTYPE";
-  for (auto* f : fields)
-  {
-    int size = 4;
-    h << " " << pcdType(f->datatype, size);
-  }
-  h << "\nCOUNT";
-  for (auto* f : fields)
-    h << " " << f->count;
-  const std::size_t n = static_cast<std::size_t>(c.width) * c.height;
-  h << "\nWIDTH " << c.width << "\nHEIGHT " << c.height << "\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << n
-    << "\nDATA binary\n";
-  std::string out = h.str();
-  const std::size_t start = out.size();
-  out.resize(start + n * packed);
-  for (std::size_t i = 0; i < n; ++i)
-  {
-    char* dst = out.data() + start + i * packed;
-    const std::uint8_t* src = c.data.data() + i * c.point_step;
-    for (std::size_t k = 0; k < fields.size(); ++k)
-    {
-      std::memcpy(dst, src + fields[k]->offset, bytes[k]);
-      dst += bytes[k];
-    }
-  }
-  return out;
+  std::ostringstream out;
+  io::writePcd(out, c, io::Encoding::Binary);  // the writer of every tool: packed records
+  return out.str();
 }
 
 bool readExact(int fd, void* data, std::size_t n, const volatile bool* stop)

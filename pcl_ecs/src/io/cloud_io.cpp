@@ -10,7 +10,6 @@
 #include <iomanip>
 #include <sstream>
 
-#include <pcl/io/pcd_io.h>
 #include <unistd.h>
 
 namespace pcl_ecs
@@ -104,6 +103,7 @@ void writePly(std::ostream& out, const pcl::PCLPointCloud2& cloud, bool binary)
     const pcl::PCLPointField* field;
     std::uint8_t out_type;
     int channel;  // -1: plain value; 0..3: byte of a packed colour (r, g, b, a)
+    std::uint32_t at = 0;  // byte of the value within the field (fields of count > 1)
   };
   std::vector<Column> cols;
   auto plyTypeName = [](std::uint8_t t) {
@@ -121,20 +121,26 @@ void writePly(std::ostream& out, const pcl::PCLPointCloud2& cloud, bool binary)
   };
   for (const auto& f : cloud.fields)
   {
-    if (f.count != 1 || f.name == "_" || detail::datatypeSize(f.datatype) == 0)
+    if (f.count == 0 || f.name == "_" || detail::datatypeSize(f.datatype) == 0)
       continue;
     if (f.name == "rgb" || f.name == "rgba")
     {
       const char* names[] = {"red", "green", "blue", "alpha"};
       for (int c = 0; c < (f.name == "rgba" ? 4 : 3); ++c)
-        cols.push_back({names[c], &f, pcl::PCLPointField::UINT8, c});
+        cols.push_back({names[c], &f, pcl::PCLPointField::UINT8, c, 0});
       continue;
     }
-    std::string name = f.name;
-    if (name == "normal_x") name = "nx";
-    if (name == "normal_y") name = "ny";
-    if (name == "normal_z") name = "nz";
-    cols.push_back({name, &f, f.datatype, -1});
+    static const std::pair<const char*, const char*> standard[] = {
+        {"x", "x"}, {"y", "y"}, {"z", "z"}, {"normal_x", "nx"}, {"normal_y", "ny"}, {"normal_z", "nz"}};
+    std::string name;
+    for (const auto& [from, to] : standard)
+      if (f.name == from)
+        name = to;
+    if (name.empty())
+      name = "scalar_" + f.name;
+    for (std::uint32_t c = 0; c < f.count; ++c)
+      cols.push_back({f.count == 1 ? name : name + "_" + std::to_string(c), &f, f.datatype, -1,
+                      static_cast<std::uint32_t>(c * detail::datatypeSize(f.datatype))});
   }
   const std::size_t n = static_cast<std::size_t>(cloud.width) * cloud.height;
   out << "ply\nformat " << (binary ? "binary_little_endian" : "ascii") << " 1.0\n"
@@ -159,7 +165,7 @@ void writePly(std::ostream& out, const pcl::PCLPointCloud2& cloud, bool binary)
         v = static_cast<double>((packed >> shift[c.channel]) & 0xFFu);
       }
       else
-        v = detail::loadValue(c.field->datatype, src + c.field->offset);
+        v = detail::loadValue(c.field->datatype, src + c.field->offset + c.at);
       if (binary)
       {
         detail::storeValue(v, c.out_type, buf);  // little-endian hosts only (x86, arm64)
@@ -193,25 +199,23 @@ void writeCloud(const std::string& path, Format format, const pcl::PCLPointCloud
   }
   if (format != Format::Pcd)
     throw FileError(path + ": can only write .pcd or .ply");
-  pcl::PCDWriter writer;
-  int rc = -1;
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out)
+    throw FileError(path + ": cannot be created (" + std::strerror(errno) + ")");
   try
   {
-    const Eigen::Vector4f origin = Eigen::Vector4f::Zero();
-    const Eigen::Quaternionf orientation = Eigen::Quaternionf::Identity();
-    if (encoding == Encoding::Ascii)
-      rc = writer.writeASCII(path, cloud, origin, orientation, 9);
-    else if (encoding == Encoding::BinaryCompressed)
-      rc = writer.writeBinaryCompressed(path, cloud, origin, orientation);
-    else
-      rc = writer.writeBinary(path, cloud, origin, orientation);
+    writePcd(out, cloud, encoding);
   }
-  catch (const std::exception& e)
+  catch (const FileError& e)
   {
     throw FileError(path + ": " + e.what());
   }
-  if (rc != 0)
-    throw FileError(path + ": could not be written");
+  out.flush();
+  if (!out)
+    throw FileError(path + ": write error (disk full?)");
+  out.close();
+  if (!out)
+    throw FileError(path + ": write error (disk full?)");
 }
 
 namespace

@@ -103,6 +103,22 @@ bool parseNumber(const std::string& token, double& value)
   return true;
 }
 
+bool storeAsciiValue(const std::string& token, const pcl::PCLPointField& f, std::uint8_t* dst)
+{
+  double v = 0.0;
+  if (!parseNumber(token, v))
+    return false;
+  if (f.datatype == pcl::PCLPointField::FLOAT32 && f.name == "rgb" && v >= 0.0 && v <= 4294967295.0 &&
+      token.find_first_not_of("0123456789") == std::string::npos)
+  {
+    const auto bits = static_cast<std::uint32_t>(v);
+    std::memcpy(dst, &bits, 4);
+    return true;
+  }
+  storeValue(v, f.datatype, dst);
+  return true;
+}
+
 void setDenseFlag(pcl::PCLPointCloud2& cloud)
 {
   int ix = -1, iy = -1, iz = -1;

@@ -43,6 +43,10 @@ double loadValue(std::uint8_t datatype, const std::uint8_t* src);
 std::uint32_t addField(pcl::PCLPointCloud2& cloud, const std::string& name, std::uint8_t datatype,
                        std::uint32_t count = 1);
 
+/// Store one ascii PCD token as value of field `f` at `dst`; false unless it is a number. A float
+/// `rgb` written as an unsigned integer (as PCL writes it) keeps those bits.
+bool storeAsciiValue(const std::string& token, const pcl::PCLPointField& f, std::uint8_t* dst);
+
 /// Parse a decimal number; false unless the whole token is one (nan / inf accepted for floats).
 bool parseNumber(const std::string& token, double& value);
 

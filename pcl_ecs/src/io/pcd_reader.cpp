@@ -320,10 +320,8 @@ void parsePcd(const std::string& bytes, pcl::PCLPointCloud2& cloud)
         {
           if (!nextToken())
             fail("truncated: the header promises ", points, " points but the data ends after ", point);
-          double v = 0.0;
-          if (!detail::parseNumber(token, v))
+          if (!detail::storeAsciiValue(token, f, dst + f.offset + c * detail::datatypeSize(f.datatype)))
             fail("line ", data_line + 1, ": '", token.substr(0, 40), "' is not a number (field ", f.name, ")");
-          detail::storeValue(v, f.datatype, dst + f.offset + c * detail::datatypeSize(f.datatype));
         }
     }
     if (nextToken())

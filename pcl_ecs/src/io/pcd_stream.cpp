@@ -3,6 +3,8 @@
 
 #include "io_detail.h"
 
+#include <pcl_ecs/io/cloud_convert.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
@@ -308,11 +310,9 @@ std::size_t PcdStreamReader::read(std::size_t max_points, std::vector<std::uint8
           if (!nextToken(token))
             failAt(path_, "truncated: the header promises ", header_.points, " points but the data ends after ",
                    read_ + i);
-          double v = 0.0;
-          if (!detail::parseNumber(token, v))
+          if (!detail::storeAsciiValue(token, f, dst + f.offset + c * detail::datatypeSize(f.datatype)))
             failAt(path_, "data line ", aline_ + 1, ": '", token.substr(0, 40), "' is not a number (field ",
                    f.name, ")");
-          detail::storeValue(v, f.datatype, dst + f.offset + c * detail::datatypeSize(f.datatype));
         }
     }
   }
@@ -326,6 +326,10 @@ PcdStreamWriter::PcdStreamWriter(const std::string& path, const std::vector<pcl:
                                  std::uint32_t point_step, const std::array<double, 7>& viewpoint)
   : out_(path), fields_(fields), point_step_(point_step), viewpoint_(viewpoint)
 {
+  packed_step_ = packedFields(fields_, packed_fields_);
+  layout_packed_ = packed_fields_.size() == fields_.size();
+  for (std::size_t k = 0; layout_packed_ && k < fields_.size(); ++k)
+    layout_packed_ = fields_[k].offset == packed_fields_[k].offset && fields_[k].name == packed_fields_[k].name;
   file_.open(out_.tempPath(), std::ios::binary | std::ios::trunc);
   if (!file_)
     throw FileError(path + ": cannot create it (" + std::strerror(errno) + ")");
@@ -337,59 +341,23 @@ PcdStreamWriter::~PcdStreamWriter() = default;
 
 std::string PcdStreamWriter::headerText(std::uint64_t points) const
 {
-  // The counts are padded to a fixed width so that commit() can rewrite them in place.
-  // Fields in record order; gaps (padding) become '_' fields so the layout stays the records'.
-  struct Column
-  {
-    std::string name;
-    std::size_t size;
-    char type;
-    std::uint32_t count;
-  };
-  std::vector<pcl::PCLPointField> sorted = fields_;
-  std::sort(sorted.begin(), sorted.end(), [](const auto& a, const auto& b) { return a.offset < b.offset; });
-  std::vector<Column> columns;
-  std::uint32_t at = 0;
-  auto pad = [&](std::uint32_t to) {
-    if (to > at)
-      columns.push_back({"_", 1, 'U', to - at});
-  };
-  for (const auto& f : sorted)
-  {
-    pad(f.offset);
-    const char t = (f.datatype == pcl::PCLPointField::FLOAT32 || f.datatype == pcl::PCLPointField::FLOAT64) ? 'F'
-                   : (f.datatype == pcl::PCLPointField::INT8 || f.datatype == pcl::PCLPointField::INT16 ||
-                      f.datatype == pcl::PCLPointField::INT32)
-                       ? 'I'
-                       : 'U';
-    columns.push_back({f.name, detail::datatypeSize(f.datatype), t, f.count});
-    at = std::max(at, static_cast<std::uint32_t>(f.offset + detail::datatypeSize(f.datatype) * f.count));
-  }
-  pad(point_step_);
-  std::ostringstream h;
-  h << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS";
-  for (const auto& c : columns)
-    h << ' ' << c.name;
-  h << "\nSIZE";
-  for (const auto& c : columns)
-    h << ' ' << c.size;
-  h << "\nTYPE";
-  for (const auto& c : columns)
-    h << ' ' << c.type;
-  h << "\nCOUNT";
-  for (const auto& c : columns)
-    h << ' ' << c.count;
-  h << "\nWIDTH " << std::left << std::setw(20) << points << "\nHEIGHT 1\nVIEWPOINT";
-  h << std::setprecision(17);
-  for (const double v : viewpoint_)
-    h << ' ' << v;
-  h << "\nPOINTS " << std::left << std::setw(20) << points << "\nDATA binary\n";
-  return h.str();
+  // The counts take a fixed width so that commit() can rewrite them in place.
+  return pcdHeader(packed_fields_, points, 1, viewpoint_, "binary", true);
 }
 
 void PcdStreamWriter::append(const std::uint8_t* records, std::size_t n)
 {
-  file_.write(reinterpret_cast<const char*>(records), static_cast<std::streamsize>(n * point_step_));
+  if (packed_step_ != point_step_ || !layout_packed_)
+  {
+    // Records with padding or '_' fields: packed before they are written.
+    std::vector<std::int64_t> all(n);
+    for (std::size_t i = 0; i < n; ++i)
+      all[i] = static_cast<std::int64_t>(i);
+    pack_buffer_.assign(n * packed_step_, 0);
+    copyRecords(records, point_step_, fields_, all, pack_buffer_.data(), packed_step_, packed_fields_);
+    records = pack_buffer_.data();
+  }
+  file_.write(reinterpret_cast<const char*>(records), static_cast<std::streamsize>(n * packed_step_));
   if (!file_)
     throw FileError(out_.targetPath() + ": write failed (disk full?)");
   written_ += n;

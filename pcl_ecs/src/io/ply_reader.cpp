@@ -117,7 +117,13 @@ std::string pclName(const std::string& p)
       {"intensity", "intensity"}, {"scalar_intensity", "intensity"}, {"scalar_Intensity", "intensity"},
       {"label", "label"}, {"curvature", "curvature"}, {"ecs_label", "ecs_label"}};
   const auto it = names.find(p);
-  return it == names.end() ? std::string() : it->second;
+  if (it != names.end())
+    return it->second;
+  // Any other property travels through under its own name; CloudCompare's scalar fields are
+  // written as scalar_NAME (and writePly writes ours so).
+  if (p.rfind("scalar_", 0) == 0 && p.size() > 7)
+    return p.substr(7);
+  return p;
 }
 
 int colourChannel(const std::string& p)
@@ -235,8 +241,8 @@ void parsePly(const std::string& bytes, pcl::PCLPointCloud2& cloud)
     for (const auto& f : cloud.fields)
       if (f.name == name)
         fail("the vertex element has the property ", prop.name, " twice");
-    const bool is_int = name == "label" || name == "ecs_label";
-    detail::addField(cloud, name, is_int ? pcl::PCLPointField::UINT32 : pcl::PCLPointField::FLOAT32);
+    // Every property keeps its type: double coordinates stay double, integer fields integers.
+    detail::addField(cloud, name, prop.type);
     field_of[p] = static_cast<int>(cloud.fields.size() - 1);
   }
   for (const char* axis : {"x", "y", "z"})

@@ -6,8 +6,11 @@
 // pcl::fromPCLPointCloud2 turns it into any PCL point type.
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <ostream>
 #include <stdexcept>
+#include <vector>
 #include <string>
 
 #include <pcl/PCLPointCloud2.h>
@@ -73,8 +76,23 @@ void writeCloud(const std::string& path, Format format, const pcl::PCLPointCloud
                 Encoding encoding);
 
 /** \brief Write a PLY file (vertex element only) to a stream; rgb / rgba become uchar red green
- * blue (alpha), normal_x.. become nx ny nz. */
+ * blue (alpha), normal_x.. become nx ny nz; every other field keeps its type and is named
+ * `scalar_NAME`, the name CloudCompare loads as a scalar field (parsePly reads it back as NAME).
+ * Fields of count > 1 become NAME_0, NAME_1, ... */
 void writePly(std::ostream& out, const pcl::PCLPointCloud2& cloud, bool binary);
+
+/** \brief Write a PCD file to a stream, records packed (no padding, no '_' fields: every PCD
+ * reader, PCL's included, reads it), fields in record order, types and names as in `cloud`.
+ * Ascii writes floats with 9 and doubles with 17 significant digits (the same bits read back) and
+ * a float `rgb` as its unsigned bits, as PCL does. Throws FileError. */
+void writePcd(std::ostream& out, const pcl::PCLPointCloud2& cloud, Encoding encoding);
+
+/** \brief The header of a PCD file whose records are laid out as `fields` (packed, see
+ * packedFields in cloud_convert.h); `data` is "ascii", "binary" or "binary_compressed". With
+ * `fixed_width_counts` WIDTH, HEIGHT and POINTS take 20 characters each, so that a writer can
+ * rewrite them in place. */
+std::string pcdHeader(const std::vector<pcl::PCLPointField>& fields, std::uint64_t width, std::uint64_t height,
+                      const std::array<double, 7>& viewpoint, const char* data, bool fixed_width_counts);
 
 /** \brief A temporary file beside `target` that becomes `target` only on commit(); removed by
  * the destructor otherwise, so a failed run leaves no partial output behind. */

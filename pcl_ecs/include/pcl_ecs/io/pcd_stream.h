@@ -97,7 +97,8 @@ private:
 
 /** \brief Writes a binary PCD chunk by chunk: a temporary file beside `path` whose header's
  * WIDTH and POINTS are fixed on commit(), then renamed into place. Without commit() (an exception,
- * a kill) nothing appears at `path`. */
+ * a kill) nothing appears at `path`. Records come in the layout `fields` / `point_step` and are
+ * written packed (no padding, no '_' fields), as writePcd writes them. */
 class PcdStreamWriter
 {
 public:
@@ -121,6 +122,10 @@ private:
   std::vector<pcl::PCLPointField> fields_;
   std::uint32_t point_step_;
   std::array<double, 7> viewpoint_;
+  std::vector<pcl::PCLPointField> packed_fields_;
+  std::uint32_t packed_step_ = 0;
+  bool layout_packed_ = true;
+  std::vector<std::uint8_t> pack_buffer_;
   std::uint64_t written_ = 0;
 };
 

@@ -1,0 +1,150 @@
+#include "cloud_simplify.h"
+
+#include <pcl_ecs/feature_aware_cover_simplify.h>
+#include <pcl_ecs/io/cloud_convert.h>
+#include <pcl_ecs/io/pcd_stream.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <memory>
+
+namespace pcl_ecs
+{
+namespace tools
+{
+
+namespace
+{
+/// A coordinate in the field's own type (float, double or, rarely, an integer type).
+void storeCoordinate(const pcl::PCLPointField& f, std::uint8_t* rec, double v)
+{
+  io::storeFieldValue(v, f.datatype, rec + f.offset);
+}
+
+template <typename PointT>
+Result runFilter(const pcl::PCLPointCloud2& input, const Eigen::Vector3d& shift, const Parameters& params,
+                 const ProgressCallback& progress)
+{
+  auto cloud = std::make_shared<pcl::PointCloud<PointT>>();
+  io::fromCloud(input, *cloud, shift);
+  cloud->sensor_origin_ = Eigen::Vector4f(static_cast<float>(-shift.x()), static_cast<float>(-shift.y()),
+                                          static_cast<float>(-shift.z()), 0.0f);
+  FeatureAwareCoverSimplify<PointT> filter;
+  filter.setParameters(params);
+  filter.setProgressCallback(progress);
+  filter.setInputCloud(cloud);
+  pcl::PointCloud<PointT> out;
+  filter.filter(out);
+  return filter.getResult();
+}
+}  // namespace
+
+std::size_t finitePoints(const pcl::PCLPointCloud2& cloud)
+{
+  pcl::PointCloud<pcl::PointXYZ> xyz;
+  io::fromCloud(cloud, xyz, io::boundingBoxCentre(cloud));
+  return static_cast<std::size_t>(std::count_if(xyz.begin(), xyz.end(), [](const pcl::PointXYZ& p) {
+    return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
+  }));
+}
+
+CloudRun simplifyCloud(const pcl::PCLPointCloud2& input, const Parameters& given, const CloudRunOptions& options)
+{
+  CloudRun run;
+  const auto& fields = input.fields;
+  const int fx = io::fieldIndex(fields, "x"), fy = io::fieldIndex(fields, "y"), fz = io::fieldIndex(fields, "z");
+  if (fx < 0 || fy < 0 || fz < 0)
+  {
+    run.result.error = "the cloud has no x, y and z fields";
+    return run;
+  }
+  Parameters params = given;
+  if (options.target_ratio > 0.0)
+    params.target_size = std::max<std::size_t>(
+        1, static_cast<std::size_t>(std::llround(options.target_ratio * static_cast<double>(finitePoints(input)))));
+  const Eigen::Vector3d shift = io::boundingBoxCentre(input);
+  if (params.use_input_normals)
+  {
+    if (io::fieldIndex(fields, "normal_x") < 0 || io::fieldIndex(fields, "normal_y") < 0 ||
+        io::fieldIndex(fields, "normal_z") < 0)
+    {
+      run.result.error = "use_input_normals is set but the cloud has no normal_x, normal_y and normal_z fields";
+      return run;
+    }
+    run.result = runFilter<pcl::PointNormal>(input, shift, params, options.progress);
+  }
+  else
+    run.result = runFilter<pcl::PointXYZ>(input, shift, params, options.progress);
+  Result& r = run.result;
+  if (!r.error.empty())
+    return run;
+  for (Ball& b : r.balls)
+  {
+    b.centre += shift;
+    b.representative += shift;
+  }
+
+  // The output: the source records, packed, representatives moved to their optimised point.
+  pcl::PCLPointCloud2& out = run.output;
+  out.header = input.header;
+  out.point_step = io::packedFields(fields, out.fields);
+  const std::size_t m = r.labels.size();
+  out.width = static_cast<std::uint32_t>(m);
+  out.height = 1;
+  out.row_step = out.point_step * out.width;
+  out.is_dense = true;
+  out.data.assign(m * out.point_step, 0);
+  io::copyRecords(input.data.data(), input.point_step, fields, r.source_index, out.data.data(), out.point_step,
+                  out.fields);
+  const pcl::PCLPointField* axis[3] = {&out.fields[static_cast<std::size_t>(io::fieldIndex(out.fields, "x"))],
+                                       &out.fields[static_cast<std::size_t>(io::fieldIndex(out.fields, "y"))],
+                                       &out.fields[static_cast<std::size_t>(io::fieldIndex(out.fields, "z"))]};
+  for (std::size_t i = 0; i < m; ++i)
+  {
+    if (r.labels[i] != PointLabel::Representative)
+      continue;
+    const Eigen::Vector3d& v = r.balls[static_cast<std::size_t>(r.ball_of_output[i])].representative;
+    std::uint8_t* rec = out.data.data() + i * out.point_step;
+    for (int a = 0; a < 3; ++a)
+      storeCoordinate(*axis[a], rec, v[a]);
+  }
+  if (options.features)
+  {
+    pcl::PCLPointCloud2& f = run.features;
+    f.header = out.header;
+    f.fields = out.fields;
+    f.point_step = out.point_step;
+    f.height = 1;
+    f.is_dense = true;
+    for (std::size_t i = 0; i < m; ++i)
+      if (r.labels[i] == PointLabel::Feature)
+        f.data.insert(f.data.end(), out.data.begin() + static_cast<std::ptrdiff_t>(i * out.point_step),
+                      out.data.begin() + static_cast<std::ptrdiff_t>((i + 1) * out.point_step));
+    f.width = static_cast<std::uint32_t>(f.data.size() / std::max<std::uint32_t>(1, f.point_step));
+    f.row_step = f.point_step * f.width;
+  }
+  if (options.labels)
+  {
+    const std::uint32_t old_step = out.point_step;
+    pcl::PCLPointField lf;
+    lf.name = "ecs_label";
+    lf.offset = old_step;
+    lf.datatype = pcl::PCLPointField::UINT8;
+    lf.count = 1;
+    std::vector<std::uint8_t> data(m * (old_step + 1));
+    for (std::size_t i = 0; i < m; ++i)
+    {
+      std::memcpy(data.data() + i * (old_step + 1), out.data.data() + i * old_step, old_step);
+      data[i * (old_step + 1) + old_step] = static_cast<std::uint8_t>(r.labels[i]);
+    }
+    out.fields.push_back(lf);
+    out.point_step = old_step + 1;
+    out.row_step = out.point_step * out.width;
+    out.data = std::move(data);
+  }
+  return run;
+}
+
+}  // namespace tools
+}  // namespace pcl_ecs
