@@ -136,14 +136,11 @@ Options parseArgs(int argc, char** argv, bool& done)
   Options o;
   o.params.threads = 1;  // the workers are the parallelism of the node
   done = false;
-  for (int i = 1; i < argc; ++i)
+  tools::ArgWalker args(argc, argv);
+  while (args.next())
   {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc)
-        throw tools::UsageError(a + " needs a value");
-      return argv[++i];
-    };
+    const std::string a = args.flag();
+    auto value = [&]() -> std::string { return args.value(); };
     if (a == "--help" || a == "-h")
     {
       std::cout << kUsage << tools::filterFlagsHelp();

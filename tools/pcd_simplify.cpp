@@ -116,7 +116,8 @@ Options parseArgs(int argc, char** argv, bool& done)
   Options o;
   std::vector<std::string> positional;
   done = false;
-  for (ArgWalker args(argc, argv); args.next();)
+  ArgWalker args(argc, argv);
+  while (args.next())
   {
     const std::string& a = args.flag();
     auto value = [&]() { return args.value(); };
@@ -198,6 +199,7 @@ Options parseArgs(int argc, char** argv, bool& done)
   o.output = positional[1];
   if (o.target_ratio > 0.0 && o.params.target_size > 0)
     throw UsageError("--target-size and --target-ratio exclude each other");
+  checkFilterFlagConflicts(args, o.target_ratio > 0.0);
   if (o.stream)
   {
     if (o.target_ratio > 0.0 || o.params.target_size > 0)
@@ -325,6 +327,9 @@ nlohmann::json statsJson(const Options& o, const RunOutput& run, const pcl::PCLP
                  {"rough_balls", s.rough_balls},
                  {"gap_points", s.gap_points},
                  {"target_iterations", s.target_iterations}};
+  if (s.target_size > 0)
+    j["target"] = {{"size", s.target_size}, {"reached", s.target_reached}, {"closest_size", s.output_points}};
+  j["target_reached"] = s.target_reached;
   j["geometry"] = {{"bbox_diagonal", s.bbox_diagonal},
                    {"feature_threshold", s.feature_threshold},
                    {"mean_spacing", s.mean_spacing},
@@ -531,6 +536,14 @@ int runTool(int argc, char** argv)
     throw ToolError(kExitOutput, e.what());
   }
 
+  if (!r.result.summary.target_reached)
+    std::fprintf(stderr,
+                 "pcd_simplify: warning: the target of %zu points is out of reach; the closest size is %zu points "
+                 "(%s)\n",
+                 r.result.summary.target_size, r.result.summary.output_points,
+                 r.result.summary.output_points > r.result.summary.target_size
+                     ? "every ball is already as large as the radius cap allows (--radius-cap, --target-cap)"
+                     : "every point is already a feature or a ball of its own");
   if (!o.quiet)
   {
     const Summary& s = r.result.summary;

@@ -70,9 +70,20 @@ int main(int argc, char** argv)
   std::vector<std::string> pos;
   std::string mesh_path;
   bool json = false;
-  for (int i = 1; i < argc; ++i)
+  tools::ArgWalker args(argc, argv);
+  while (true)
   {
-    const std::string a = argv[i];
+    try
+    {
+      if (!args.next())
+        break;
+    }
+    catch (const tools::UsageError& e)
+    {
+      std::fprintf(stderr, "pcl_ecs_eval: %s\n", e.what());
+      return tools::kExitUsage;
+    }
+    const std::string a = args.flag();
     if (a == "--help" || a == "-h")
     {
       std::cout << kUsage;
@@ -85,8 +96,18 @@ int main(int argc, char** argv)
     }
     if (a == "--json")
       json = true;
-    else if (a == "--mesh" && i + 1 < argc)
-      mesh_path = argv[++i];
+    else if (a == "--mesh")
+    {
+      try
+      {
+        mesh_path = args.value();
+      }
+      catch (const tools::UsageError& e)
+      {
+        std::fprintf(stderr, "pcl_ecs_eval: %s\n", e.what());
+        return tools::kExitUsage;
+      }
+    }
     else if (!a.empty() && a[0] == '-')
     {
       std::fprintf(stderr, "pcl_ecs_eval: unknown option '%s' (see --help)\n", a.c_str());

@@ -367,6 +367,10 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
 
   s.balls = out.cover.balls.size();
   s.output_points = s.feature_points + s.balls;
+  s.target_size = params.target_size;
+  s.target_reached = params.target_size == 0 ||
+                     std::abs(static_cast<double>(s.output_points) - static_cast<double>(params.target_size)) <=
+                         0.01 * static_cast<double>(params.target_size);
   s.max_error = out.cover.max_error;
   s.radius_evaluations = out.cover.radius_evaluations;
   for (const auto& b : out.cover.balls)

@@ -106,6 +106,19 @@ bool applyFilterFlag(const std::string& flag, const std::function<std::string()>
   return true;
 }
 
+void checkFilterFlagConflicts(const ArgWalker& args, bool target_ratio_given)
+{
+  const bool target = args.given("--target-size") || target_ratio_given;
+  if (args.given("--terr") && target)
+    throw UsageError(std::string("--terr and ") + (target_ratio_given ? "--target-ratio" : "--target-size") +
+                     " exclude each other: give the error bound or the size, the search finds the other");
+  for (const char* flag : {"--target-cap", "--target-gap"})
+    if (args.given(flag) && !target)
+      throw UsageError(std::string(flag) + " applies only with --target-size or --target-ratio");
+  if (args.given("--adapt-factor") && args.given("--no-adapt"))
+    throw UsageError("--adapt-factor and --no-adapt exclude each other");
+}
+
 std::string filterFlagsHelp()
 {
   const Parameters d;

@@ -7,6 +7,8 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
+#include <vector>
 #include <stdexcept>
 #include <string>
 
@@ -52,25 +54,50 @@ int runToolMain(const char* tool, const std::function<int()>& body);
 void keepFreedMemory();
 
 /** \brief Walks the command line: `for (ArgWalker args(argc, argv); args.next();)`, then
- * `args.flag()` is the current word and `args.value()` takes the next one as its value (UsageError
- * "FLAG needs a value" at the end of the line). */
+ * `args.flag()` is the current word and `args.value()` takes its value: the text after '=' in
+ * `--flag=value`, else the next word (UsageError "FLAG needs a value" at the end of the line). A
+ * `--flag=value` whose flag takes no value is a UsageError. `given(flag)` says whether a flag was
+ * on the line (for flags that exclude each other). */
 class ArgWalker
 {
 public:
   ArgWalker(int argc, char** argv) : argc_(argc), argv_(argv) {}
   bool next()
   {
+    if (inline_value_)
+      throw UsageError(flag_ + " takes no value (got '" + flag_ + "=" + *inline_value_ + "')");
     if (++i_ >= argc_)
       return false;
     flag_ = argv_[i_];
+    const std::size_t eq = flag_.find('=');
+    if (flag_.rfind("--", 0) == 0 && eq != std::string::npos && eq > 2)
+    {
+      inline_value_ = flag_.substr(eq + 1);
+      flag_.resize(eq);
+    }
+    if (flag_.size() > 1 && flag_[0] == '-')
+      seen_.push_back(flag_);
     return true;
   }
   const std::string& flag() const { return flag_; }
   std::string value()
   {
+    if (inline_value_)
+    {
+      std::string v = std::move(*inline_value_);
+      inline_value_.reset();
+      return v;
+    }
     if (i_ + 1 >= argc_)
       throw UsageError(flag_ + " needs a value");
     return argv_[++i_];
+  }
+  bool given(const std::string& flag) const
+  {
+    for (const auto& f : seen_)
+      if (f == flag)
+        return true;
+    return false;
   }
 
 private:
@@ -78,6 +105,8 @@ private:
   char** argv_;
   int i_ = 0;
   std::string flag_;
+  std::optional<std::string> inline_value_;
+  std::vector<std::string> seen_;
 };
 
 /** \brief Strict number parsing: the whole text must be the number. Throw UsageError naming
@@ -90,6 +119,10 @@ std::uint64_t parseUnsignedFlag(const std::string& flag, const std::string& text
  * for flags that take one), store it in `params` and return true. */
 bool applyFilterFlag(const std::string& flag, const std::function<std::string()>& value,
                      Parameters& params);
+
+/** \brief Refuse filter flags that contradict each other or have no effect (UsageError): --terr with a
+ * target size, --target-cap or --target-gap without one, --adapt-factor with --no-adapt. */
+void checkFilterFlagConflicts(const ArgWalker& args, bool target_ratio_given);
 
 /** \brief The --help text of the filter flags, with the library's defaults. */
 std::string filterFlagsHelp();

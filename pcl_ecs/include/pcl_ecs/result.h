@@ -68,6 +68,11 @@ struct Summary
   double error_threshold = 0;        ///< T_err used (the one found, in target-size mode)
   double max_error = 0;              ///< largest E(r) over all balls
   int target_iterations = 0;         ///< cover runs made by the target-size search
+  std::size_t target_size = 0;       ///< the size asked for (0: T_err mode)
+  /// false when a target size was asked for and the output is not within 1% of it: the closest
+  /// size the method reaches (every point a feature or its own ball, or the fewest balls the
+  /// radius cap allows) is output_points
+  bool target_reached = true;
   std::size_t radius_evaluations = 0;  ///< E(r) computed by the (last) cover run
   StageTimings timings;
 };

@@ -1,6 +1,7 @@
 // Plain-text XYZ: whitespace-separated columns, one point per line.
 #include "io_detail.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 
@@ -103,9 +104,35 @@ void parseXyz(const std::string& bytes, pcl::PCLPointCloud2& cloud)
     colour_col = 6;
   }
   const auto F = pcl::PCLPointField::FLOAT32;
-  const std::uint32_t ox = detail::addField(cloud, "x", F);
-  detail::addField(cloud, "y", F);
-  detail::addField(cloud, "z", F);
+  // Coordinates are kept as double when float would move a point by more than 1e-6 of the
+  // bounding-box diagonal (centimetre UTM coordinates, for example); otherwise float, as PCL's.
+  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  for (std::size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c)
+    {
+      const double v = values[i * columns + c];
+      if (std::isfinite(v))
+      {
+        lo[c] = std::min(lo[c], v);
+        hi[c] = std::max(hi[c], v);
+      }
+    }
+  double diag2 = 0.0;
+  for (int c = 0; c < 3; ++c)
+    diag2 += hi[c] >= lo[c] ? (hi[c] - lo[c]) * (hi[c] - lo[c]) : 0.0;
+  const double tolerance = 1e-6 * std::sqrt(diag2);
+  bool wide = false;
+  for (std::size_t i = 0; i < n * columns && !wide; ++i)
+  {
+    if (i % columns >= 3)
+      continue;
+    const double v = values[i];
+    wide = std::isfinite(v) && std::abs(static_cast<double>(static_cast<float>(v)) - v) > tolerance;
+  }
+  const auto C = wide ? pcl::PCLPointField::FLOAT64 : F;
+  const std::uint32_t ox = detail::addField(cloud, "x", C);
+  detail::addField(cloud, "y", C);
+  detail::addField(cloud, "z", C);
   std::uint32_t on = 0, oi = 0, oc = 0;
   if (normals)
   {
@@ -126,7 +153,7 @@ void parseXyz(const std::string& bytes, pcl::PCLPointCloud2& cloud)
     std::uint8_t* dst = cloud.data.data() + i * cloud.point_step;
     const double* v = values.data() + i * columns;
     for (int c = 0; c < 3; ++c)
-      detail::storeValue(v[c], F, dst + ox + 4 * c);
+      detail::storeValue(v[c], C, dst + ox + detail::datatypeSize(C) * c);
     if (normals)
       for (int c = 0; c < 3; ++c)
         detail::storeValue(v[3 + c], F, dst + on + 4 * c);
