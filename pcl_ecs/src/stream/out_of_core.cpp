@@ -52,7 +52,10 @@ using Clock = std::chrono::steady_clock;
 constexpr const char* kScratchMarker = "pcl_ecs-scratch";
 constexpr int kFormatVersion = 2;
 constexpr std::size_t kChunk = 1 << 16;          // points per read
-constexpr std::size_t kSampleTarget = 1000000;   // points in the planning sample
+constexpr std::size_t kSampleTarget = 1000000;   // points in the planning sample (at most)
+constexpr std::size_t kMinSample = 50000;        // ... and at least, when the memory limit is small
+constexpr double kPlanBytesPerSample = 160.0;    // the plan's memory per sample point (sample, tree, tiles)
+constexpr std::uint64_t kMinTilePoints = 20000;  // the smallest tile (own points + halo) worth running
 constexpr int kConcurrentTiles = 2;              // the plan assumes this many tiles in memory
 constexpr std::size_t kAttrBytes = 12 + 3 * 8;   // normal (3 f32), weight, measure, curvature (f64)
 
@@ -646,6 +649,21 @@ private:
     for (const fs::path& f : files)
       fs::remove(f, ec);
   }
+  /// Memory per point of a tile in memory (points, neighbourhoods, per-point values, records).
+  static double tileBytesPerPoint(std::size_t step) { return 420.0 + 2.0 * static_cast<double>(step); }
+  /// The limit less what the process held before the run (its code and libraries, the caller).
+  double usableBytes() const
+  {
+    return static_cast<double>(memory_limit_) - static_cast<double>(std::min(memory_limit_, baseline_bytes_));
+  }
+  /// The smallest --memory-limit this run can keep to: the process as it is, the smallest
+  /// planning sample and two of the smallest tiles.
+  std::uint64_t minimumLimit(std::size_t step) const
+  {
+    const double usable = std::max(kMinSample * kPlanBytesPerSample / 0.5,
+                                   kConcurrentTiles * kMinTilePoints * tileBytesPerPoint(step) / 0.7);
+    return baseline_bytes_ + static_cast<std::uint64_t>(usable);
+  }
   void scanAndPlan(io::PcdStreamReader& reader);
   void split();
   TileData loadTile(int t) const;
@@ -672,6 +690,7 @@ private:
   int tile_threads_ = 1;  // threads inside one tile (set by runStage for each batch of tiles)
   int threads_ = 1;       // all the run's threads
   std::uint64_t memory_limit_ = 0;
+  std::uint64_t baseline_bytes_ = 0;  ///< resident set when the run started
   /// The input as the scan read it: where a binary input's records start, its size and time.
   std::uint64_t data_offset_ = 0;
   FileStamp input_stamp_;
@@ -692,9 +711,12 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
   header_ = reader.header();
   const io::XyzAccess xyz(header_);
   const std::size_t step = header_.point_step;
-  const double fraction = std::min(1.0, static_cast<double>(kSampleTarget) / std::max<double>(1.0, static_cast<double>(header_.points)));
+  // The sample fits half of what the limit leaves beside the process itself.
+  const std::size_t sample_target = std::max<std::size_t>(
+      kMinSample, std::min<std::size_t>(kSampleTarget, static_cast<std::size_t>(0.5 * usableBytes() / kPlanBytesPerSample)));
+  const double fraction = std::min(1.0, static_cast<double>(sample_target) / std::max<double>(1.0, static_cast<double>(header_.points)));
   std::vector<Eigen::Vector3d> sample;
-  sample.reserve(std::min<std::uint64_t>(header_.points, kSampleTarget + kSampleTarget / 10));
+  sample.reserve(std::min<std::uint64_t>(header_.points, sample_target + sample_target / 10));
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
   std::vector<std::uint8_t> chunk;
   // A binary input is read again by the split, straight from its records (two reads of the input
@@ -832,11 +854,11 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
   plan_.halo = 1.25 * cap_estimate + 3.0 * rk_high;
 
   // Tile size: a tile and its halo must fit the budget of one of kConcurrentTiles workers.
-  const double bytes_per_point = 420.0 + 2.0 * static_cast<double>(step);
-  const double budget = 0.7 * static_cast<double>(memory_limit_) / kConcurrentTiles;
+  const double budget = 0.7 * usableBytes() / kConcurrentTiles;
   plan_.tile_point_budget = options_.max_tile_points > 0
                                 ? options_.max_tile_points
-                                : static_cast<std::uint64_t>(std::max(20000.0, budget / bytes_per_point));
+                                : static_cast<std::uint64_t>(std::max(static_cast<double>(kMinTilePoints),
+                                                                      budget / tileBytesPerPoint(step)));
   std::vector<std::array<double, 2>> sample2(sample.size());
   for (std::size_t i = 0; i < sample.size(); ++i)
     sample2[i] = {sample[i][plan_.axis_u], sample[i][plan_.axis_v]};
@@ -916,8 +938,10 @@ void Runner::split()
   plan_.part_core.assign(tiles, std::vector<std::uint64_t>(static_cast<std::size_t>(parts), 0));
   std::vector<std::vector<std::uint64_t>> part_halo(tiles, std::vector<std::uint64_t>(static_cast<std::size_t>(parts), 0));
   std::vector<std::uint64_t> part_finite(static_cast<std::size_t>(parts), 0);
+  // Write buffers: 64 MiB in all, or 40% of what the memory limit leaves if that is less.
+  const double buffers = std::min(static_cast<double>(64u << 20), 0.4 * usableBytes());
   const std::size_t buffer = std::max<std::size_t>(
-      4096, std::min<std::size_t>(1 << 20, (64u << 20) / (2 * tiles * static_cast<std::size_t>(parts))));
+      4096, std::min<std::size_t>(1 << 20, static_cast<std::size_t>(buffers) / (2 * tiles * static_cast<std::size_t>(parts))));
   std::atomic<std::uint64_t> done{0};
   auto run = [&](int part) {
     const auto p = static_cast<std::size_t>(part);
@@ -944,6 +968,8 @@ void Runner::split()
     {
       core[t].buf.resize(buffer);
       halo[t].buf.resize(buffer);
+      core[t].file.rdbuf()->pubsetbuf(nullptr, 0);  // the sink buffers: no second buffer per file
+      halo[t].file.rdbuf()->pubsetbuf(nullptr, 0);
       core[t].file.open(paths_.core(static_cast<int>(t), part).string() + ".tmp", std::ios::binary | std::ios::trunc);
       halo[t].file.open(paths_.halo(static_cast<int>(t), part).string() + ".tmp", std::ios::binary | std::ios::trunc);
       if (!core[t].file || !halo[t].file)
@@ -1727,6 +1753,14 @@ StreamSummary Runner::run()
   io::PcdStreamReader reader(input_);
   header_ = reader.header();
   input_stamp_ = stampOf(input_);
+  // The limit is a promise: refused at once when this process cannot keep to it.
+  baseline_bytes_ = residentBytes();
+  const std::uint64_t needed = minimumLimit(header_.point_step);
+  if (memory_limit_ < needed && options_.max_tile_points == 0)
+    failRun("--memory-limit " + std::to_string(memory_limit_ >> 20) + "M is below what this run needs: at least " +
+            std::to_string((needed + (1u << 20) - 1) >> 20) + "M (the process itself holds " +
+            std::to_string(baseline_bytes_ >> 20) + "M before it starts; two tiles of " +
+            std::to_string(kMinTilePoints) + " points and the planning sample need the rest)");
   (void)io::XyzAccess(header_);
   std::error_code ec;
   if (fs::exists(paths_.root, ec))
