@@ -8,6 +8,7 @@ pkgs=(
   libnanoflann-dev          # the fast K-d tree behind our PCL search back end
   libyaml-cpp-dev           # ecs_node launch files
   libgtest-dev nlohmann-json3-dev libcgal-dev  # CGAL: the benchmark peers (and Cocone)
+  pcl-tools                 # pcl_pcd2ply: the interop test reads our outputs with PCL's own tools
   clang libclang-rt-14-dev  # libFuzzer for the loader fuzz target
   python3
   xvfb xauth libgl1-mesa-dri  # offscreen screenshots of the viewer (tests and README pictures)

@@ -131,7 +131,8 @@ void writePly(std::ostream& out, const pcl::PCLPointCloud2& cloud, bool binary)
       continue;
     }
     static const std::pair<const char*, const char*> standard[] = {
-        {"x", "x"}, {"y", "y"}, {"z", "z"}, {"normal_x", "nx"}, {"normal_y", "ny"}, {"normal_z", "nz"}};
+        {"x", "x"}, {"y", "y"}, {"z", "z"}, {"normal_x", "nx"}, {"normal_y", "ny"}, {"normal_z", "nz"},
+        {"intensity", "intensity"}, {"label", "label"}, {"curvature", "curvature"}};
     std::string name;
     for (const auto& [from, to] : standard)
       if (f.name == from)

@@ -71,8 +71,8 @@ std::string pcdHeader(const std::vector<pcl::PCLPointField>& fields, std::uint64
   for (const auto& f : fields)
     h << ' ' << detail::datatypeSize(f.datatype);
   h << "\nTYPE";
-  for (const auto& f : fields)
-    h << ' ' << pcdType(f.datatype);
+  for (const auto& f : fields)  // a packed float colour is declared U, as PCL declares it
+    h << ' ' << (f.name == "rgb" && f.datatype == pcl::PCLPointField::FLOAT32 ? 'U' : pcdType(f.datatype));
   h << "\nCOUNT";
   for (const auto& f : fields)
     h << ' ' << f.count;

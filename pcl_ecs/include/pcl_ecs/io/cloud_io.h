@@ -75,10 +75,11 @@ void readCloud(const std::string& path, pcl::PCLPointCloud2& cloud);
 void writeCloud(const std::string& path, Format format, const pcl::PCLPointCloud2& cloud,
                 Encoding encoding);
 
-/** \brief Write a PLY file (vertex element only) to a stream; rgb / rgba become uchar red green
- * blue (alpha), normal_x.. become nx ny nz; every other field keeps its type and is named
- * `scalar_NAME`, the name CloudCompare loads as a scalar field (parsePly reads it back as NAME).
- * Fields of count > 1 become NAME_0, NAME_1, ... */
+/** \brief Write a PLY file (vertex element only) to a stream; every field keeps its type. rgb / rgba
+ * become uchar red green blue (alpha), normal_x.. become nx ny nz; x y z, intensity, label and
+ * curvature keep the names PCL's PLY reader maps to its point types; every other field is named
+ * `scalar_NAME`, which CloudCompare loads as a scalar field NAME without asking (parsePly reads
+ * it back as NAME). Fields of count > 1 become NAME_0, NAME_1, ... */
 void writePly(std::ostream& out, const pcl::PCLPointCloud2& cloud, bool binary);
 
 /** \brief Write a PCD file to a stream, records packed (no padding, no '_' fields: every PCD
