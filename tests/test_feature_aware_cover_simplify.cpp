@@ -548,3 +548,27 @@ TEST(Filter, FeatureRepresentativeLabelsAndUtmCoordinates)
     EXPECT_LE(p.x, hi.x() + 50.0f);
   }
 }
+
+TEST(Filter, ResultSaysWhetherTheTargetSizeWasReached)
+{
+  auto cloud = fibonacciSphere(20000, 1.0);
+  pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> f;
+  f.setInputCloud(cloud);
+  pcl::PointCloud<pcl::PointXYZ> out;
+  f.setTargetSize(1000);
+  f.filter(out);
+  EXPECT_TRUE(f.getResult().summary.target_reached);
+  EXPECT_EQ(f.getResult().summary.target_size, 1000u);
+  EXPECT_NEAR(static_cast<double>(out.size()), 1000.0, 10.0);
+  // Three points are not within 1% of any size the search can reach: the closest size is given.
+  f.setTargetSize(3);
+  f.filter(out);
+  EXPECT_FALSE(f.getResult().summary.target_reached);
+  EXPECT_EQ(f.getResult().summary.output_points, out.size());
+  EXPECT_GT(out.size(), 3u);
+  // T_err mode: no target, nothing to reach.
+  f.setTargetSize(0);
+  f.filter(out);
+  EXPECT_TRUE(f.getResult().summary.target_reached);
+  EXPECT_EQ(f.getResult().summary.target_size, 0u);
+}

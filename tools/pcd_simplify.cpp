@@ -362,6 +362,10 @@ int runStream(const Options& o)
   {
     s = stream::simplifyOutOfCore(o.input, o.output, o.params, so);
   }
+  catch (const stream::LimitError& e)
+  {
+    throw ToolError(kExitUsage, e.what());
+  }
   catch (const io::FormatError& e)
   {
     throw ToolError(kExitInput, e.what());

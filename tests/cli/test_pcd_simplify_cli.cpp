@@ -312,3 +312,44 @@ TEST_F(Cli, ReadsEveryEncoding)
     EXPECT_EQ(got.data, ref.data) << v;
   }
 }
+
+TEST_F(Cli, ContradictoryFlagsAreUsageErrors)
+{
+  const std::string in = kShared + "/bunny.pcd";
+  const std::string out = " " + path("out.pcd");
+  const std::set<std::string> none;
+  expectRefused(in + out + " --terr 1e-3 --target-size 500", 2, none, "exclude each other");
+  expectRefused(in + out + " --target-ratio 0.1 --terr 1e-3", 2, none, "exclude each other");
+  expectRefused(in + out + " --target-cap 2", 2, none, "only with --target-size");
+  expectRefused(in + out + " --target-gap 0.5", 2, none, "only with --target-size");
+  expectRefused(in + out + " --no-adapt --adapt-factor 3", 2, none, "exclude each other");
+  expectRefused(in + out + " --quiet=yes", 2, none, "takes no value");
+}
+
+TEST_F(Cli, FlagEqualsValueIsTheSameAsTwoWords)
+{
+  const std::string in = kShared + "/bunny.pcd";
+  RunResult a = run(in + " " + path("a.pcd") + " --terr 2e-3 --alpha 5 --stats " + path("a.json") + " -q");
+  RunResult b = run(in + " " + path("b.pcd") + " --terr=2e-3 --alpha=5 --stats=" + path("b.json") + " -q");
+  ASSERT_EQ(a.code, 0) << a.err;
+  ASSERT_EQ(b.code, 0) << b.err;
+  EXPECT_EQ(slurp(path("a.pcd")), slurp(path("b.pcd")));
+  EXPECT_TRUE(fs::exists(path("b.json")));
+}
+
+TEST_F(Cli, UnreachableTargetIsReported)
+{
+  const std::string in = kShared + "/bunny.pcd";
+  const RunResult r = run(in + " " + path("a.pcd") + " --target-ratio 0.0001 --stats " + path("a.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("out of reach"), std::string::npos) << r.err;
+  const auto j = nlohmann::json::parse(slurp(path("a.json")));
+  EXPECT_FALSE(j["target_reached"].get<bool>());
+  EXPECT_EQ(j["target"]["size"].get<std::size_t>(), 4u);
+  EXPECT_EQ(j["target"]["closest_size"].get<std::size_t>(), load(path("a.pcd")).width);
+  // A reachable target says nothing of the kind.
+  const RunResult ok = run(in + " " + path("b.pcd") + " --target-ratio 0.05 --stats " + path("b.json"));
+  ASSERT_EQ(ok.code, 0) << ok.err;
+  EXPECT_EQ(ok.err.find("out of reach"), std::string::npos) << ok.err;
+  EXPECT_TRUE(nlohmann::json::parse(slurp(path("b.json")))["target_reached"].get<bool>());
+}

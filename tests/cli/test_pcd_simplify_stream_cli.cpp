@@ -5,9 +5,13 @@
 
 #include <pcl_ecs/io/pcd_stream.h>
 
+#include <cmath>
 #include <csignal>
 #include <filesystem>
+#include <fstream>
 #include <set>
+#include <sstream>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -193,4 +197,57 @@ TEST_F(StreamCli, RefusalsLeaveNothingBehind)
   EXPECT_NE(r.err.find("truncated"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(path("o.pcd")));
   EXPECT_FALSE(fs::exists(path("o.pcd.ecs-scratch")));
+}
+
+// --memory-limit is a promise for the whole process: kept on a 1M-point scan at the smallest limit
+// the tool accepts, and refused at the start (with the smallest limit that works, which then
+// holds) when records are so wide that not even two of the smallest tiles fit.
+TEST_F(StreamCli, SmallMemoryLimitHoldsOrIsRefusedAtOnce)
+{
+  if (kSanitized)
+    GTEST_SKIP() << "sanitizers change memory use; the Release run checks it";
+  const std::string scan = makeScan("m1.pcd", 1000000, "--scans 4");
+  RunResult r = runTool(kSimplify, scan + " " + path("out.pcd") + " --stream --memory-limit 64M --quiet");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_LT(r.peak_rss_kib, 64L * 1024) << "peak RSS " << r.peak_rss_kib / 1024 << " MiB at --memory-limit 64M";
+
+  // 1,000 float fields a point: two tiles of the smallest size need far more than 64M.
+  const std::size_t n = 3000, fields = 1000;
+  std::ostringstream h;
+  h << "VERSION 0.7\nFIELDS x y z";
+  for (std::size_t f = 3; f < fields; ++f)
+    h << " f" << f;
+  h << "\nSIZE";
+  for (std::size_t f = 0; f < fields; ++f)
+    h << " 4";
+  h << "\nTYPE";
+  for (std::size_t f = 0; f < fields; ++f)
+    h << " F";
+  h << "\nCOUNT";
+  for (std::size_t f = 0; f < fields; ++f)
+    h << " 1";
+  h << "\nWIDTH " << n << "\nHEIGHT 1\nPOINTS " << n << "\nDATA binary\n";
+  std::string bytes = h.str();
+  std::vector<float> rec(fields, 0.5f);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const double z = 1.0 - 2.0 * (i + 0.5) / n, s = std::sqrt(1.0 - z * z), t = 2.39996 * static_cast<double>(i);
+    rec[0] = static_cast<float>(s * std::cos(t));
+    rec[1] = static_cast<float>(s * std::sin(t));
+    rec[2] = static_cast<float>(z);
+    bytes.append(reinterpret_cast<const char*>(rec.data()), rec.size() * 4);
+  }
+  std::ofstream(path("wide.pcd"), std::ios::binary) << bytes;
+  const std::set<std::string> before = entries();
+  r = runTool(kSimplify, path("wide.pcd") + " " + path("w.pcd") + " --stream --memory-limit 64M --quiet");
+  EXPECT_EQ(r.code, 2) << r.err;
+  const std::size_t at = r.err.find("at least ");
+  ASSERT_NE(at, std::string::npos) << r.err;
+  EXPECT_EQ(entries(), before) << "a refused run leaves nothing";
+  const long needed_mib = std::stol(r.err.substr(at + 9));
+  EXPECT_GT(needed_mib, 64);
+  r = runTool(kSimplify, path("wide.pcd") + " " + path("w.pcd") + " --stream --quiet --memory-limit " +
+                             std::to_string(needed_mib) + "M");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_LT(r.peak_rss_kib, needed_mib * 1024) << "peak RSS " << r.peak_rss_kib / 1024 << " MiB";
 }

@@ -1757,7 +1757,7 @@ StreamSummary Runner::run()
   baseline_bytes_ = residentBytes();
   const std::uint64_t needed = minimumLimit(header_.point_step);
   if (memory_limit_ < needed && options_.max_tile_points == 0)
-    failRun("--memory-limit " + std::to_string(memory_limit_ >> 20) + "M is below what this run needs: at least " +
+    throw LimitError("--memory-limit " + std::to_string(memory_limit_ >> 20) + "M is below what this run needs: at least " +
             std::to_string((needed + (1u << 20) - 1) >> 20) + "M (the process itself holds " +
             std::to_string(baseline_bytes_ >> 20) + "M before it starts; two tiles of " +
             std::to_string(kMinTilePoints) + " points and the planning sample need the rest)");

@@ -25,6 +25,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -92,8 +93,15 @@ struct StreamSummary
   std::array<double, 6> stage_seconds{{0, 0, 0, 0, 0, 0}};  ///< scan, split, A, B, C, write
 };
 
-/** \brief Run the method on `input` (a PCD file) into `output` (binary PCD with the input's fields).
- * Throws io::FileError / io::FormatError for unreadable or bad input, std::runtime_error for
+/** \brief A memory limit this run cannot keep; what() names the smallest one that works. */
+struct LimitError : std::runtime_error
+{
+  using std::runtime_error::runtime_error;
+};
+
+/** \brief Run the method on `input` (a PCD file) into `output` (binary PCD with the input's fields,
+ * records packed). Throws io::FileError / io::FormatError for unreadable or bad input, LimitError
+ * before any work when the memory limit is below what the run needs, std::runtime_error for
  * anything else (message says what and where). Nothing appears at `output` unless it succeeds.
  * Parameters::target_size is not supported here (refused). */
 StreamSummary simplifyOutOfCore(const std::string& input, const std::string& output,
