@@ -10,7 +10,7 @@ pkgs=(
   libgtest-dev nlohmann-json3-dev libcgal-dev  # CGAL: the benchmark peers (and Cocone)
   pcl-tools                 # pcl_pcd2ply: the interop test reads our outputs with PCL's own tools
   clang libclang-rt-14-dev  # libFuzzer for the loader fuzz target
-  python3
+  python3 python3-venv       # the Python tests run in a venv (tests/python/requirements.txt)
   xvfb xauth libgl1-mesa-dri  # offscreen screenshots of the viewer (tests and README pictures)
 )
 missing=()

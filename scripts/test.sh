@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The project's test command (CI runs exactly this): installs what is missing, builds in Release
-# and runs every test; then the same tests under AddressSanitizer + UBSan; then fuzzes the cloud
-# readers for a bounded time. PCL_ECS_QUICK=1 skips the sanitizer and fuzz stages.
+# and runs every test (C++ with ctest; Python with pytest, in a venv under build/ with the pinned
+# tests/python/requirements.txt); then the C++ tests under AddressSanitizer + UBSan; then fuzzes
+# the cloud readers for a bounded time. PCL_ECS_QUICK=1 skips the sanitizer and fuzz stages.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install_deps.sh
@@ -9,6 +10,14 @@ bash scripts/install_deps.sh
 echo "== Release build and tests"
 bash scripts/build.sh
 ctest --test-dir build --output-on-failure --parallel 2
+
+echo "== Python tests (pytest)"
+venv=build/venv-tests
+if [ ! -x "$venv/bin/python" ]; then
+  python3 -m venv "$venv"
+fi
+"$venv/bin/pip" install --quiet --disable-pip-version-check -r tests/python/requirements.txt
+PCL_ECS_TOOLS="$PWD/build/tools" "$venv/bin/python" -m pytest -p no:cacheprovider -q tests/python
 
 if [ "${PCL_ECS_QUICK:-0}" = "1" ]; then
   exit 0
