@@ -13,7 +13,6 @@
 #include <Eigen/Core>
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/point_cloud.h>
-#include <pcl/point_traits.h>
 #include <pcl/common/io.h>
 
 namespace pcl_ecs

@@ -2,8 +2,10 @@
 // binary_compressed; organised or not), PLY (ascii, binary little/big endian) and plain-text XYZ.
 // The parsers are our own so that every malformed input gets a precise message instead of a crash
 // or a silent half-read (they are fuzzed: tests/fuzz). They produce a pcl::PCLPointCloud2 whose
-// fields keep PCL's names (x y z, normal_x.., rgb/rgba, intensity, label, curvature), so
-// pcl::fromPCLPointCloud2 turns it into any PCL point type.
+// fields keep PCL's names (x y z, normal_x.., rgb/rgba, intensity, label, curvature) and the
+// file's types; io::fromCloud (cloud_convert.h) turns it into any PCL point type, converting
+// types that pcl::fromPCLPointCloud2 would leave at zero. The writers write packed records that
+// PCL, Open3D and CloudCompare read.
 #pragma once
 
 #include <array>
@@ -59,7 +61,9 @@ enum class Encoding
 void parsePcd(const std::string& bytes, pcl::PCLPointCloud2& cloud);
 /** \brief Parse a PLY file held in `bytes` (its vertex element). Throws FormatError. */
 void parsePly(const std::string& bytes, pcl::PCLPointCloud2& cloud);
-/** \brief Parse whitespace-separated columns, one point per line, '#' comments. By column count:
+/** \brief Parse whitespace-separated columns, one point per line, '#' comments; x y z are double
+ * when float would move a point by more than 1e-6 of the bounding-box diagonal, else float. By
+ * column count:
  * 3: x y z; 4: x y z intensity; 6: x y z nx ny nz, or x y z r g b when the last three are all
  * integers in [0, 255] and one exceeds 1; 7: x y z r g b a (integers in [0, 255]);
  * 9: x y z nx ny nz r g b. Other counts, or lines of different counts, are refused.
