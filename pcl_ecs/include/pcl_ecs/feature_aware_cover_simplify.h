@@ -102,7 +102,11 @@ public:
   std::uint64_t getSeed() const { return params_.seed; }
 
   /** \brief Use the input's normal_x/y/z instead of estimating normals (point types with
-   * normals only). Default false. */
+   * normals only). Default false. The output's normals (point types with normals): a feature
+   * keeps its own; a representative gets the weighted mean of its ball's normals, the input's
+   * with this set, the estimated ones (eq. 2, turned towards the sensor origin) without it.
+   * (pcd_simplify and ecs_node instead keep every input field of the representative's source
+   * point, its normal included.) */
   void setUseInputNormals(bool use) { params_.use_input_normals = use; }
   bool getUseInputNormals() const { return params_.use_input_normals; }
 
