@@ -1,11 +1,17 @@
 // libFuzzer target over our PCD, PLY and XYZ parsers: the first byte picks the parser, the rest is
 // the file. Any input must either parse or throw FormatError; a crash, a sanitizer report or an
-// allocation beyond the RSS limit is a bug.
+// allocation beyond the RSS limit is a bug. What parses is also converted to a point type (every
+// field type through io::fromCloud) and written as PCD, which must parse again to the same
+// packed records.
+#include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/cloud_io.h>
 
 #include <cstddef>
 #include <cstdint>
+#include <sstream>
 #include <string>
+
+#include <pcl/point_types.h>
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
 {
@@ -24,6 +30,27 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     // What parsed must be self-consistent.
     const std::size_t n = static_cast<std::size_t>(cloud.width) * cloud.height;
     if (cloud.data.size() != n * cloud.point_step)
+      __builtin_trap();
+    pcl::PointCloud<pcl::PointXYZRGBNormal> typed;
+    pcl_ecs::io::fromCloud(cloud, typed, pcl_ecs::io::boundingBoxCentre(cloud));
+    if (typed.size() != n)
+      __builtin_trap();
+    std::ostringstream written;
+    pcl_ecs::io::writePcd(written, cloud, static_cast<pcl_ecs::io::Encoding>(data[0] / 3 % 3));
+    pcl::PCLPointCloud2 again;
+    try
+    {
+      pcl_ecs::io::parsePcd(written.str(), again);
+    }
+    catch (const pcl_ecs::io::FormatError&)
+    {
+      if (n > 0)
+        __builtin_trap();  // what we write must read back
+      return 0;
+    }
+    const pcl::PCLPointCloud2 packed = pcl_ecs::io::packedCloud(cloud);
+    if (again.point_step != packed.point_step || again.fields.size() != packed.fields.size() ||
+        again.data.size() != packed.data.size())
       __builtin_trap();
   }
   catch (const pcl_ecs::io::FormatError&)

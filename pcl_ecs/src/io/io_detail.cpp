@@ -98,8 +98,8 @@ bool parseNumber(const std::string& token, double& value)
   value = std::strtod(begin, &end);
   if (end != begin + token.size())
     return false;
-  if (errno == ERANGE && std::isfinite(value) && value != 0.0)
-    return false;
+  if (errno == ERANGE && std::isinf(value))
+    return false;  // overflow; an underflow to a subnormal or zero is a number all the same
   return true;
 }
 
