@@ -534,6 +534,10 @@ int runNode(int argc, char** argv)
     throw tools::UsageError("source directory " + src.path + " does not exist");
   if (snk.kind == Endpoint::Kind::Dir && !fs::is_directory(snk.path))
     throw tools::UsageError("sink directory " + snk.path + " does not exist");
+  std::error_code same_ec;
+  if (src.kind == Endpoint::Kind::Dir && snk.kind == Endpoint::Kind::Dir && fs::equivalent(src.path, snk.path, same_ec))
+    throw tools::UsageError("source and sink are the same directory (" + snk.path +
+                            "): the outputs would be read as new frames and the inputs overwritten");
 
   struct sigaction sa{};
   sa.sa_handler = onSignal;

@@ -233,6 +233,7 @@ int run(int argc, char** argv)
 
 int main(int argc, char** argv)
 {
+  pcl_ecs::io::removeTemporariesOnSignal();  // an interrupted run leaves no temporary file
   return runToolMain("pcd_make_scan", [&] {
     try
     {

@@ -155,5 +155,6 @@ int run(int argc, char** argv)
 
 int main(int argc, char** argv)
 {
+  pcl_ecs::io::removeTemporariesOnSignal();  // an interrupted run leaves no temporary file
   return runToolMain("pcd_reconstruct", [&] { return run(argc, argv); });
 }

@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <iterator>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -238,16 +239,26 @@ Options parseArgs(int argc, char** argv, bool& done)
   }
   if (!o.stats.empty() && fs::path(o.stats).extension() != ".json")
     throw UsageError(o.stats + ": --stats writes JSON; give it a .json name");
-  // Refuse to overwrite the input with the output (or the features / stats).
+  // Refuse to overwrite the input with an output, or one output with another.
   std::error_code ec;
-  for (const std::string* out : {&o.output, &o.features, &o.stats, &o.mesh})
+  auto sameFile = [&](const std::string& a, const std::string& b) {
+    if (fs::exists(a, ec) && fs::exists(b, ec))
+      return fs::equivalent(a, b, ec);
+    return fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec);
+  };
+  const std::pair<const char*, const std::string*> outputs[] = {
+      {"OUTPUT", &o.output}, {"--features", &o.features}, {"--stats", &o.stats}, {"--mesh", &o.mesh}};
+  for (std::size_t k = 0; k < std::size(outputs); ++k)
   {
-    if (out->empty())
+    const std::string& out = *outputs[k].second;
+    if (out.empty())
       continue;
-    const bool same = fs::exists(*out, ec) ? fs::equivalent(o.input, *out, ec)
-                                           : fs::weakly_canonical(o.input, ec) == fs::weakly_canonical(*out, ec);
-    if (same)
-      throw UsageError(*out + ": is the input file; choose another output name");
+    if (sameFile(o.input, out))
+      throw UsageError(out + ": is the input file; choose another output name");
+    for (std::size_t j = 0; j < k; ++j)
+      if (!outputs[j].second->empty() && sameFile(*outputs[j].second, out))
+        throw UsageError(std::string(outputs[k].first) + " " + out + " is also " + outputs[j].first +
+                         "; give each output its own file");
   }
   return o;
 }
@@ -575,5 +586,6 @@ int runTool(int argc, char** argv)
 int main(int argc, char** argv)
 {
   keepFreedMemory();
+  io::removeTemporariesOnSignal();  // an interrupted run leaves no temporary file
   return runToolMain("pcd_simplify", [&] { return runTool(argc, argv); });
 }

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstring>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -17,6 +18,7 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <pcl/common/io.h>
 #include <pcl/conversions.h>
 #include <pcl/point_types.h>
 
@@ -352,4 +354,155 @@ TEST_F(Cli, UnreachableTargetIsReported)
   ASSERT_EQ(ok.code, 0) << ok.err;
   EXPECT_EQ(ok.err.find("out of reach"), std::string::npos) << ok.err;
   EXPECT_TRUE(nlohmann::json::parse(slurp(path("b.json")))["target_reached"].get<bool>());
+}
+
+TEST_F(Cli, OutputsThatAreTheSameFileAreUsageErrors)
+{
+  const std::string in = kShared + "/bunny.pcd";
+  const std::set<std::string> none;
+  expectRefused(in + " " + path("a.pcd") + " --features " + path("a.pcd"), 2, none, "also OUTPUT");
+  expectRefused(in + " " + path("a.ply") + " --mesh " + path("a.ply"), 2, none, "also OUTPUT");
+  expectRefused(in + " " + path("a.pcd") + " --features " + path("f.ply") + " --mesh " + path("./f.ply"), 2, none,
+                "also --features");
+}
+
+// A full filesystem: the write fails with exit 4 and one line, the old output stays as it was, and
+// no temporary file is left, for every encoding (PCL's writer, used before, reported success with
+// a truncated ascii file and died of SIGBUS writing binary through mmap).
+TEST_F(Cli, FullDiskKeepsTheOldOutputAndLeavesNothing)
+{
+  const std::string mnt = path("small");
+  fs::create_directories(mnt);
+  if (pcl_ecs_test::runCommand("mount -t tmpfs -o size=32k tmpfs " + mnt, dir_).code != 0)
+    GTEST_SKIP() << "cannot mount a small tmpfs here (CI runs as root and can)";
+  struct Unmount
+  {
+    std::string dir, mnt;
+    ~Unmount() { pcl_ecs_test::runCommand("umount " + mnt, dir); }
+  } unmount{dir_, mnt};
+  const std::string old_content(20000, 'x');
+  for (const char* flags : {"", " --ascii", " --compressed", " --ply"})
+  {
+    const bool ply = std::string(flags) == " --ply";
+    const std::string target = mnt + (ply ? "/old.ply" : "/old.pcd");
+    std::ofstream(target, std::ios::binary) << old_content;
+    const RunResult r = run(kShared + "/bunny.pcd " + target + (ply ? "" : flags));
+    EXPECT_EQ(r.code, 4) << flags << ": " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_EQ(slurp(target), old_content) << flags;
+    std::size_t entries = 0;
+    for (const auto& e : fs::directory_iterator(mnt))
+    {
+      (void)e;
+      ++entries;
+    }
+    EXPECT_EQ(entries, 1u) << flags << ": a temporary file was left";
+    fs::remove(target);
+  }
+}
+
+// SIGTERM or SIGINT while the output is being written: the old output intact, no temporary file.
+TEST_F(Cli, SignalDuringTheWriteLeavesNoTemporary)
+{
+  // A large ascii output takes long enough to write that the signal lands during the write.
+  const std::string in = kShared + "/terrain_csite1_utm.pcd";
+  for (const char* sig : {"TERM", "INT"})
+  {
+    const std::string target = path("out.pcd");
+    std::ofstream(target) << "old";
+    // Started in the background; the signal is sent once the temporary file exists.
+    std::ofstream(path("kill.sh")) << kTool << " " << in << " " << target << " --ascii --terr 1e-5 -q &\n"
+                                   << "pid=$!\n"
+                                   << "for i in $(seq 1 3000); do\n"
+                                   << "  ls -a " << dir_ << " | grep -q '^[.]out[.]pcd[.]tmp' && break\n"
+                                   << "  sleep 0.005\n"
+                                   << "done\n"
+                                   << "kill -" << sig << " $pid\n"
+                                   << "wait $pid\n"
+                                   << "echo status $?\n";
+    const RunResult r = pcl_ecs_test::runCommand("sh " + path("kill.sh"), dir_);
+    EXPECT_NE(r.out.find("status"), std::string::npos) << r.out << r.err;
+    const bool finished = r.out.find("status 0") != std::string::npos;
+    std::printf("SIGTERM/SIGINT test (%s): %s", sig, r.out.c_str());
+    if (!finished)
+      EXPECT_EQ(slurp(target), "old") << sig;
+    fs::remove(path("kill.sh"));
+    for (const auto& e : fs::directory_iterator(dir_))
+      EXPECT_EQ(e.path().filename().string().find(".out.pcd.tmp"), std::string::npos)
+          << sig << ": left behind: " << e.path();
+  }
+}
+
+// Every PCD field type is read in memory as --stream reads it: float64 coordinates (all three, or
+// z alone), integer and 16-bit fields. The run is the float32 run's, and the fields keep their types.
+TEST_F(Cli, TypedFieldsAreReadInMemory)
+{
+  const pcl::PCLPointCloud2 bunny = load(kShared + "/bunny.pcd");
+  pcl::PointCloud<pcl::PointXYZ> pts;
+  pcl_ecs::io::fromCloud(bunny, pts);
+  const std::size_t n = pts.size();
+  ASSERT_EQ(run(kShared + "/bunny.pcd " + path("ref.pcd") + " -q").code, 0);
+  const std::size_t ref_points = load(path("ref.pcd")).width;
+  struct Layout
+  {
+    const char* name;
+    std::uint8_t xy, z;  // coordinate types
+  };
+  for (const Layout& l : {Layout{"f8.pcd", pcl::PCLPointField::FLOAT64, pcl::PCLPointField::FLOAT64},
+                          Layout{"z8.pcd", pcl::PCLPointField::FLOAT32, pcl::PCLPointField::FLOAT64}})
+  {
+    pcl::PCLPointCloud2 c;
+    c.height = 1;
+    c.width = static_cast<std::uint32_t>(n);
+    const std::pair<const char*, std::uint8_t> fields[] = {{"x", l.xy}, {"y", l.xy}, {"z", l.z},
+                                                           {"intensity", pcl::PCLPointField::UINT16},
+                                                           {"ring", pcl::PCLPointField::INT8}};
+    for (const auto& [name, type] : fields)
+    {
+      pcl::PCLPointField f;
+      f.name = name;
+      f.datatype = type;
+      f.count = 1;
+      f.offset = c.point_step;
+      c.fields.push_back(f);
+      c.point_step += static_cast<std::uint32_t>(pcl::getFieldSize(type));
+    }
+    c.data.resize(n * c.point_step);
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      std::uint8_t* rec = c.data.data() + i * c.point_step;
+      const double v[5] = {pts[i].x, pts[i].y, pts[i].z, static_cast<double>(i % 65536), static_cast<double>(i % 200) - 100};
+      for (int k = 0; k < 5; ++k)
+      {
+        const auto& f = c.fields[static_cast<std::size_t>(k)];
+        if (f.datatype == pcl::PCLPointField::FLOAT64) { std::memcpy(rec + f.offset, &v[k], 8); }
+        else if (f.datatype == pcl::PCLPointField::FLOAT32) { const float x = static_cast<float>(v[k]); std::memcpy(rec + f.offset, &x, 4); }
+        else if (f.datatype == pcl::PCLPointField::UINT16) { const auto x = static_cast<std::uint16_t>(v[k]); std::memcpy(rec + f.offset, &x, 2); }
+        else { const auto x = static_cast<std::int8_t>(v[k]); std::memcpy(rec + f.offset, &x, 1); }
+      }
+    }
+    pcl_ecs::io::writeCloud(path(l.name), pcl_ecs::io::Format::Pcd, c, pcl_ecs::io::Encoding::Binary);
+    const RunResult r = run(path(l.name) + " " + path("out.pcd") + " -q");
+    ASSERT_EQ(r.code, 0) << l.name << ": " << r.err;
+    const pcl::PCLPointCloud2 out = load(path("out.pcd"));
+    EXPECT_EQ(out.width, ref_points) << l.name;
+    ASSERT_EQ(out.fields.size(), 5u);
+    for (std::size_t k = 0; k < 5; ++k)
+    {
+      EXPECT_EQ(out.fields[k].name, fields[k].first);
+      EXPECT_EQ(out.fields[k].datatype, fields[k].second) << l.name << " " << fields[k].first;
+    }
+    // Every output point's intensity and ring name one input point, as a pair.
+    for (std::size_t i = 0; i < out.width; ++i)
+    {
+      std::uint16_t in;
+      std::int8_t ring;
+      std::memcpy(&in, out.data.data() + i * out.point_step + out.fields[3].offset, 2);
+      std::memcpy(&ring, out.data.data() + i * out.point_step + out.fields[4].offset, 1);
+      bool found = false;
+      for (std::size_t j = in; j < n && !found; j += 65536)
+        found = static_cast<int>(j % 200) - 100 == ring;
+      EXPECT_TRUE(found) << l.name << ": point " << i;
+    }
+  }
 }

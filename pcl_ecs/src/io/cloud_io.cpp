@@ -10,6 +10,8 @@
 #include <iomanip>
 #include <sstream>
 
+#include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 
 namespace pcl_ecs
@@ -193,9 +195,9 @@ void writeCloud(const std::string& path, Format format, const pcl::PCLPointCloud
     if (!out)
       throw FileError(path + ": cannot be created (" + std::strerror(errno) + ")");
     writePly(out, cloud, encoding != Encoding::Ascii);
-    out.flush();
+    out.close();
     if (!out)
-      throw FileError(path + ": write error (disk full?)");
+      throw FileError(path + ": write error (" + std::strerror(errno) + ")");
     return;
   }
   if (format != Format::Pcd)
@@ -211,17 +213,73 @@ void writeCloud(const std::string& path, Format format, const pcl::PCLPointCloud
   {
     throw FileError(path + ": " + e.what());
   }
-  out.flush();
-  if (!out)
-    throw FileError(path + ": write error (disk full?)");
   out.close();
   if (!out)
-    throw FileError(path + ": write error (disk full?)");
+    throw FileError(path + ": write error (" + std::strerror(errno) + ")");
 }
 
 namespace
 {
 std::atomic<unsigned> temp_counter{0};
+
+// The temporary files alive in this process, for the signal handler: fixed storage, no allocation.
+constexpr int kMaxTemporaries = 64;
+char temporaries[kMaxTemporaries][4096];
+std::atomic<bool> temporary_used[kMaxTemporaries];
+
+int registerTemporary(const std::string& path)
+{
+  if (path.size() >= sizeof temporaries[0])
+    return -1;
+  for (int k = 0; k < kMaxTemporaries; ++k)
+  {
+    bool expected = false;
+    if (temporary_used[k].load() || !temporary_used[k].compare_exchange_strong(expected, true))
+      continue;
+    std::memcpy(temporaries[k], path.c_str(), path.size() + 1);
+    return k;
+  }
+  return -1;
+}
+
+void unregisterTemporary(int slot)
+{
+  if (slot >= 0)
+    temporary_used[slot].store(false);
+}
+
+extern "C" void removeTemporariesAndDie(int sig)
+{
+  for (int k = 0; k < kMaxTemporaries; ++k)
+    if (temporary_used[k].load())
+      ::unlink(temporaries[k]);
+  ::signal(sig, SIG_DFL);
+  ::raise(sig);
+}
+
+/// fsync a file by name: its data is on disk (or the error is known) before it is renamed.
+std::string syncFile(const std::string& path)
+{
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0)
+    return std::strerror(errno);
+  std::string why;
+  if (::fsync(fd) != 0)
+    why = std::strerror(errno);
+  if (::close(fd) != 0 && why.empty())
+    why = std::strerror(errno);
+  return why;
+}
+}  // namespace
+
+void removeTemporariesOnSignal()
+{
+  struct sigaction sa = {};
+  sa.sa_handler = removeTemporariesAndDie;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESETHAND;
+  for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGPIPE})
+    ::sigaction(sig, &sa, nullptr);
 }
 
 AtomicOutput::AtomicOutput(const std::string& target) : target_(target)
@@ -231,6 +289,7 @@ AtomicOutput::AtomicOutput(const std::string& target) : target_(target)
   temp_ = (dir / ("." + t.filename().string() + ".tmp-" + std::to_string(::getpid()) + "-" +
                   std::to_string(temp_counter++)))
               .string();
+  slot_ = registerTemporary(temp_);
 }
 
 AtomicOutput::~AtomicOutput()
@@ -240,15 +299,21 @@ AtomicOutput::~AtomicOutput()
     std::error_code ec;
     fs::remove(temp_, ec);
   }
+  unregisterTemporary(slot_);
 }
 
 void AtomicOutput::commit()
 {
+  const std::string why = syncFile(temp_);
+  if (!why.empty())
+    throw FileError(target_ + ": cannot be written (" + why + ")");
   std::error_code ec;
   fs::rename(temp_, target_, ec);
   if (ec)
     throw FileError(target_ + ": cannot be put in place (" + ec.message() + ")");
   committed_ = true;
+  unregisterTemporary(slot_);
+  slot_ = -1;
 }
 
 std::string checkWritable(const std::string& path)

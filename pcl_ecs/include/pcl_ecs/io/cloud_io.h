@@ -100,7 +100,10 @@ std::string pcdHeader(const std::vector<pcl::PCLPointField>& fields, std::uint64
                       const std::array<double, 7>& viewpoint, const char* data, bool fixed_width_counts);
 
 /** \brief A temporary file beside `target` that becomes `target` only on commit(); removed by
- * the destructor otherwise, so a failed run leaves no partial output behind. */
+ * the destructor otherwise, so a failed run leaves no partial output behind. commit() fsyncs the
+ * file first (a full disk is an error then, never a truncated output) and renames it over the
+ * target, which stays as it was until then. With removeTemporariesOnSignal() a SIGINT, SIGTERM,
+ * SIGHUP or SIGPIPE removes the temporary files before the process dies. */
 class AtomicOutput
 {
 public:
@@ -118,7 +121,12 @@ private:
   std::string target_;
   std::string temp_;
   bool committed_ = false;
+  int slot_ = -1;  // in the signal handler's list
 };
+
+/** \brief Install handlers for SIGINT, SIGTERM, SIGHUP and SIGPIPE that remove the temporary
+ * files of every live AtomicOutput, then die of the signal as before. For tools, once at start. */
+void removeTemporariesOnSignal();
 
 /** \brief Check that a file can be created at `path` (its directory exists and is writable, the
  * path is not a directory). Returns an empty string or the reason. */
