@@ -373,6 +373,11 @@ TEST_F(NodeTest, EveryLaunchFileParsesAndBadOnesAreRefused)
     const std::string cmd = kNode + " --launch " + (dir / name).string() + " > /dev/null 2>&1";
     EXPECT_EQ(WEXITSTATUS(std::system(cmd.c_str())), 2) << name;
   }
+  // A sink that is the source directory would read its own outputs as frames; --flag=value works.
+  std::filesystem::create_directories(dir / "frames");
+  const std::string same = kNode + " --once --source=dir:" + (dir / "frames").string() + " --sink dir:" +
+                           (dir / "frames" / ".").string() + " > /dev/null 2>&1";
+  EXPECT_EQ(WEXITSTATUS(std::system(same.c_str())), 2);
 }
 
 TEST_F(NodeTest, PipeBetweenTwoNodes)
