@@ -667,11 +667,28 @@ TEST_F(OutOfCore, RefusesWhatItCannotDo)
   EXPECT_THROW(simplifyOutOfCore(path("scan.pcd"), path("x.pcd"), params, opt), std::runtime_error);
   params.feature_factor = 6;
   EXPECT_THROW(simplifyOutOfCore(path("missing.pcd"), path("x.pcd"), params, opt), io::FileError);
-  // A directory that is not ours is never wiped.
+  // A directory that is not ours is never wiped: the scratch is made inside it, and only that goes.
   fs::create_directories(path("mine"));
   std::ofstream(path("mine/precious.txt")) << "keep";
   opt.scratch_dir = path("mine");
-  EXPECT_THROW(simplifyOutOfCore(path("scan.pcd"), path("x.pcd"), params, opt), std::runtime_error);
-  EXPECT_TRUE(fs::exists(path("mine/precious.txt")));
-  EXPECT_FALSE(fs::exists(path("x.pcd")));
+  bool saw_scratch = false;
+  opt.progress = [&](const std::string&) { saw_scratch = saw_scratch || fs::exists(path("mine/x.pcd.ecs-scratch")); };
+  simplifyOutOfCore(path("scan.pcd"), path("x.pcd"), params, opt);
+  EXPECT_TRUE(saw_scratch) << "the scratch lives in a directory of its own inside the given one";
+  EXPECT_TRUE(fs::exists(path("x.pcd")));
+  std::string kept;
+  std::ifstream(path("mine/precious.txt")) >> kept;
+  EXPECT_EQ(kept, "keep");
+  EXPECT_FALSE(fs::exists(path("mine/x.pcd.ecs-scratch")));
+  std::size_t left = 0;
+  for (const auto& e : fs::directory_iterator(path("mine")))
+    left += e.path().filename() == "precious.txt" ? 1 : 100;
+  EXPECT_EQ(left, 1u);
+  // An empty directory of the user's stays too.
+  fs::create_directories(path("empty"));
+  opt.scratch_dir = path("empty");
+  opt.progress = nullptr;
+  simplifyOutOfCore(path("scan.pcd"), path("y.pcd"), params, opt);
+  EXPECT_TRUE(fs::is_directory(path("empty")));
+  EXPECT_TRUE(fs::is_empty(path("empty")));
 }

@@ -59,7 +59,9 @@ Scans larger than memory (PCD in, binary PCD out; docs/STREAMING.md):
                       input are kept. Output depends on --memory-limit (the tiling), not on
                       --threads. The gap bound (--max-gap) holds across tiles as in memory.
   --memory-limit SIZE memory budget, e.g. 512M, 2G (default: a quarter of the RAM, >= 256M)
-  --scratch DIR       scratch directory (default OUTPUT.ecs-scratch); needs about 150 bytes
+  --scratch DIR       scratch directory (default OUTPUT.ecs-scratch); in an existing directory
+                      this tool did not make (/tmp, one of yours) it makes NAME.ecs-scratch for
+                      an output NAME and removes only that; needs about 150 bytes
                       per input point plus 2.3 × the input's size free (50M points of 17
                       bytes use 4.4 GiB at the peak); removed on success
   --keep-scratch      keep the scratch directory after success, with every intermediate file

@@ -1763,12 +1763,14 @@ StreamSummary Runner::run()
             std::to_string(kMinTilePoints) + " points and the planning sample need the rest)");
   (void)io::XyzAccess(header_);
   std::error_code ec;
-  if (fs::exists(paths_.root, ec))
-  {
-    if (!fs::exists(paths_.root / kScratchMarker) && !fs::is_empty(paths_.root, ec))
-      failRun("the scratch directory " + paths_.root.string() +
-              " exists and was not made by pcl_ecs: choose another with --scratch");
-  }
+  // A directory of the user's (not one this tool made: no marker) is never used as the scratch
+  // itself, nor removed: the scratch becomes a directory of ours inside it, named for the output,
+  // so that `--scratch /tmp` works and a rerun with the same flags finds it again.
+  if (!options_.scratch_dir.empty() && fs::is_directory(paths_.root, ec) && !fs::exists(paths_.root / kScratchMarker))
+    paths_.root /= fs::path(output_).filename().string() + ".ecs-scratch";
+  if (fs::exists(paths_.root, ec) && !fs::exists(paths_.root / kScratchMarker) && !fs::is_empty(paths_.root, ec))
+    failRun("the scratch directory " + paths_.root.string() +
+            " exists and was not made by pcl_ecs: choose another with --scratch");
   if (loadPlan(paths_, fingerprint, plan_))
   {
     summary_.resumed = true;

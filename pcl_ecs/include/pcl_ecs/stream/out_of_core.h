@@ -39,8 +39,10 @@ struct StreamOptions
 {
   /** \brief The memory budget in bytes (0: a quarter of the physical memory, at least 256 MiB). */
   std::uint64_t memory_limit = 0;
-  /** \brief Scratch directory ("" : OUTPUT.ecs-scratch beside the output). Removed on success
-   * unless keep_scratch. */
+  /** \brief Scratch directory ("" : OUTPUT.ecs-scratch beside the output). A directory that
+   * does not exist yet is made and is the scratch; an existing one that this tool did not make
+   * (a user's directory, /tmp) holds the scratch as a directory of ours, NAME.ecs-scratch for an
+   * output NAME. Only what the run made is removed (on success, unless keep_scratch). */
   std::string scratch_dir;
   /** \brief Keep the scratch directory and every intermediate file in it (by default a tile's
    * files are removed as soon as no later step reads them, and the directory on success). */
