@@ -572,3 +572,49 @@ TEST(Filter, ResultSaysWhetherTheTargetSizeWasReached)
   EXPECT_TRUE(f.getResult().summary.target_reached);
   EXPECT_EQ(f.getResult().summary.target_size, 0u);
 }
+
+// Coincident points: a cloud stored twice is simplified as the cloud itself, point for point, and
+// the copies map to the output point of the point they coincide with.
+TEST(Filter, CoincidentPointsAreMergedIntoOne)
+{
+  auto once = fibonacciSphere(20000, 1.0, 0.002, 3);
+  auto twice = std::make_shared<Cloud>(*once);
+  *twice += *once;
+  Filter a, b;
+  Cloud out_a, out_b;
+  a.setInputCloud(once);
+  a.filter(out_a);
+  b.setInputCloud(twice);
+  b.filter(out_b);
+  ASSERT_TRUE(b.getResult().error.empty()) << b.getResult().error;
+  ASSERT_EQ(out_b.size(), out_a.size());
+  for (std::size_t i = 0; i < out_a.size(); ++i)
+    ASSERT_TRUE(out_a[i].x == out_b[i].x && out_a[i].y == out_b[i].y && out_a[i].z == out_b[i].z) << i;
+  EXPECT_EQ(b.getResult().summary.merged_points, once->size());
+  EXPECT_EQ(b.getResult().summary.finite_points, twice->size());
+  EXPECT_EQ(a.getResult().summary.merged_points, 0u);
+  const auto& map = b.getResult().input_to_output;
+  for (std::size_t j = 0; j < once->size(); ++j)
+    ASSERT_EQ(map[j + once->size()], map[j]) << j;
+}
+
+// Thousands of points at one spot (what many sensors write for missing returns) cost no more than
+// one point there; the rest of the cloud is simplified as without them.
+TEST(Filter, ManyPointsAtOneSpotAreOnePoint)
+{
+  auto sphere = fibonacciSphere(20000, 1.0, 0.0, 5);
+  auto spiked = std::make_shared<Cloud>(*sphere);
+  for (int i = 0; i < 20000; ++i)
+    spiked->push_back(pcl::PointXYZ(0, 0, 0));
+  Filter a, b;
+  Cloud out_a, out_b;
+  a.setInputCloud(sphere);
+  a.filter(out_a);
+  b.setInputCloud(spiked);
+  b.filter(out_b);
+  ASSERT_TRUE(b.getResult().error.empty()) << b.getResult().error;
+  EXPECT_EQ(b.getResult().summary.merged_points, 19999u);
+  // The one point at the centre is far from the sphere: a ball (or feature) of its own.
+  EXPECT_LE(out_b.size(), out_a.size() + 3);
+  EXPECT_GE(out_b.size(), out_a.size());
+}

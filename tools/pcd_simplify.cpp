@@ -338,6 +338,7 @@ nlohmann::json statsJson(const Options& o, const RunOutput& run, const pcl::PCLP
                  {"output_points", s.output_points},
                  {"centre_fallbacks", s.centre_fallbacks},
                  {"rough_balls", s.rough_balls},
+                 {"merged_points", s.merged_points},
                  {"gap_points", s.gap_points},
                  {"target_iterations", s.target_iterations}};
   if (s.target_size > 0)
@@ -564,11 +565,13 @@ int runTool(int argc, char** argv)
   if (!o.quiet)
   {
     const Summary& s = r.result.summary;
-    std::printf("%s: %zu -> %zu points (%.2f%%): %zu features, %zu balls; T_err %.3g, max error "
+    const std::string merged =
+        s.merged_points > 0 ? " (" + std::to_string(s.merged_points) + " coincident points merged)" : std::string();
+    std::printf("%s: %zu -> %zu points (%.2f%%)%s: %zu features, %zu balls; T_err %.3g, max error "
                 "%.3g L; %.2f s\n",
                 o.output.c_str(), s.finite_points, s.output_points,
                 100.0 * static_cast<double>(s.output_points) / static_cast<double>(std::max<std::size_t>(1, s.finite_points)),
-                s.feature_points, s.balls, s.error_threshold, s.max_error, s.timings.total);
+                merged.c_str(), s.feature_points, s.balls, s.error_threshold, s.max_error, s.timings.total);
     if (mesh)
       std::printf("%s: %s\n", o.mesh.c_str(), meshSummaryLine(*mesh).c_str());
   }

@@ -126,7 +126,8 @@ int spatialOrderBits(std::size_t count)
 }
 
 void sortBySpatialCode(std::vector<int>& ids, const std::function<Eigen::Vector3d(int)>& position,
-                       const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int threads)
+                       const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int threads,
+                       std::vector<std::uint64_t>* codes)
 {
   threads = std::max(1, threads);
   struct Keyed
@@ -155,6 +156,67 @@ void sortBySpatialCode(std::vector<int>& ids, const std::function<Eigen::Vector3
                     [](const Keyed& a, const Keyed& b) { return a.id < b.id; }, threads);
   for (std::size_t i = 0; i < ids.size(); ++i)
     ids[i] = keyed[i].id;
+  if (codes)
+  {
+    codes->resize(ids.size());
+    for (std::size_t i = 0; i < ids.size(); ++i)
+      (*codes)[i] = keyed[i].code;
+  }
+}
+
+std::vector<std::pair<int, int>> removeCoincident(std::vector<int>& ids, const std::vector<std::uint64_t>& codes,
+                                                  const std::function<Eigen::Vector3d(int)>& position)
+{
+  // Coincident points share a cell, so they lie in one run of equal codes; within a run (a few
+  // points, or many where a sensor wrote thousands of points at one spot) the run is ordered by
+  // position, then id, and every point equal to the one before it goes to that group's first.
+  std::vector<std::pair<int, int>> merged;
+  std::vector<char> drop(ids.size(), 0);
+  std::vector<std::size_t> run;
+  for (std::size_t a = 0; a < ids.size();)
+  {
+    std::size_t b = a + 1;
+    while (b < ids.size() && codes[b] == codes[a])
+      ++b;
+    if (b - a > 1)
+    {
+      run.resize(b - a);
+      std::vector<Eigen::Vector3d> p(b - a);
+      for (std::size_t k = a; k < b; ++k)
+      {
+        run[k - a] = k;
+        p[k - a] = position(ids[k]);
+      }
+      std::sort(run.begin(), run.end(), [&](std::size_t u, std::size_t v) {
+        const Eigen::Vector3d& pu = p[u - a];
+        const Eigen::Vector3d& pv = p[v - a];
+        if (pu.x() != pv.x()) return pu.x() < pv.x();
+        if (pu.y() != pv.y()) return pu.y() < pv.y();
+        if (pu.z() != pv.z()) return pu.z() < pv.z();
+        return ids[u] < ids[v];
+      });
+      for (std::size_t k = 1, first = 0; k < run.size(); ++k)
+      {
+        if (p[run[k] - a] == p[run[first] - a])
+        {
+          drop[run[k]] = 1;
+          merged.emplace_back(ids[run[k]], ids[run[first]]);
+        }
+        else
+          first = k;
+      }
+    }
+    a = b;
+  }
+  if (!merged.empty())
+  {
+    std::size_t w = 0;
+    for (std::size_t i = 0; i < ids.size(); ++i)
+      if (!drop[i])
+        ids[w++] = ids[i];
+    ids.resize(w);
+  }
+  return merged;
 }
 
 }  // namespace pcl_ecs

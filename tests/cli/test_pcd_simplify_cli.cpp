@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <string>
 
@@ -504,5 +505,43 @@ TEST_F(Cli, TypedFieldsAreReadInMemory)
         found = static_cast<int>(j % 200) - 100 == ring;
       EXPECT_TRUE(found) << l.name << ": point " << i;
     }
+  }
+}
+
+// A real scan in which every point is stored twice: simplified as the scan without the copies, in
+// T_err mode and with a target ratio (of the distinct points), and the summary says so.
+TEST_F(Cli, RoomScanWithEveryPointTwiceIsSimplifiedAsTheScanOnce)
+{
+  const std::string in = kShared + "/room_scan2.pcd";
+  const pcl::PCLPointCloud2 all = load(in);
+  // The scan once: first occurrences of each position, in file order.
+  std::set<std::array<float, 3>> seen;
+  pcl::PCLPointCloud2 once = all;
+  once.data.clear();
+  const int fx = pcl_ecs::io::fieldIndex(all.fields, "x");
+  ASSERT_GE(fx, 0);
+  for (std::size_t i = 0; i < static_cast<std::size_t>(all.width) * all.height; ++i)
+  {
+    const std::uint8_t* rec = all.data.data() + i * all.point_step;
+    std::array<float, 3> p;
+    std::memcpy(p.data(), rec + all.fields[static_cast<std::size_t>(fx)].offset, 12);
+    if (std::isfinite(p[0]) && seen.insert(p).second)
+      once.data.insert(once.data.end(), rec, rec + all.point_step);
+  }
+  once.width = static_cast<std::uint32_t>(once.data.size() / once.point_step);
+  once.height = 1;
+  once.row_step = once.width * once.point_step;
+  ASSERT_LT(once.width * 10u, all.width * 6u) << "the scan is expected to hold most points twice";
+  pcl_ecs::io::writeCloud(path("once.pcd"), pcl_ecs::io::Format::Pcd, once, pcl_ecs::io::Encoding::Binary);
+  for (const std::string mode : {"", " --target-ratio 0.1"})
+  {
+    const RunResult r2 = run(in + " " + path("twice_out.pcd") + mode);
+    const RunResult r1 = run(path("once.pcd") + " " + path("once_out.pcd") + mode);
+    ASSERT_EQ(r2.code, 0) << r2.err;
+    ASSERT_EQ(r1.code, 0) << r1.err;
+    EXPECT_NE(r2.out.find("coincident points merged"), std::string::npos) << r2.out;
+    const double n2 = load(path("twice_out.pcd")).width, n1 = load(path("once_out.pcd")).width;
+    EXPECT_NEAR(n2, n1, 0.01 * n1) << mode;
+    EXPECT_LT(n2, 0.2 * once.width) << mode << ": the doubled scan must be simplified, not returned as it is";
   }
 }

@@ -5,6 +5,7 @@
 #include <pcl_ecs/io/pcd_stream.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -40,13 +41,17 @@ Result runFilter(const pcl::PCLPointCloud2& input, const Eigen::Vector3d& shift,
 }
 }  // namespace
 
-std::size_t finitePoints(const pcl::PCLPointCloud2& cloud)
+std::size_t distinctFinitePoints(const pcl::PCLPointCloud2& cloud)
 {
   pcl::PointCloud<pcl::PointXYZ> xyz;
   io::fromCloud(cloud, xyz, io::boundingBoxCentre(cloud));
-  return static_cast<std::size_t>(std::count_if(xyz.begin(), xyz.end(), [](const pcl::PointXYZ& p) {
-    return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
-  }));
+  std::vector<std::array<float, 3>> p;
+  p.reserve(xyz.size());
+  for (const auto& q : xyz)
+    if (std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z))
+      p.push_back({q.x, q.y, q.z});
+  std::sort(p.begin(), p.end());
+  return static_cast<std::size_t>(std::unique(p.begin(), p.end()) - p.begin());
 }
 
 CloudRun simplifyCloud(const pcl::PCLPointCloud2& input, const Parameters& given, const CloudRunOptions& options)
@@ -62,7 +67,7 @@ CloudRun simplifyCloud(const pcl::PCLPointCloud2& input, const Parameters& given
   Parameters params = given;
   if (options.target_ratio > 0.0)
     params.target_size = std::max<std::size_t>(
-        1, static_cast<std::size_t>(std::llround(options.target_ratio * static_cast<double>(finitePoints(input)))));
+        1, static_cast<std::size_t>(std::llround(options.target_ratio * static_cast<double>(distinctFinitePoints(input)))));
   const Eigen::Vector3d shift = io::boundingBoxCentre(input);
   if (params.use_input_normals)
   {

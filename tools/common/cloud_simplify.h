@@ -30,7 +30,7 @@ struct CloudRun
 
 struct CloudRunOptions
 {
-  double target_ratio = 0.0;  ///< > 0: target size = ratio × the finite input points
+  double target_ratio = 0.0;  ///< > 0: target size = ratio × the distinct finite input points
   bool features = false;      ///< fill CloudRun::features
   bool labels = false;        ///< append a UINT8 field ecs_label (1 feature, 2 representative)
   ProgressCallback progress;
@@ -39,8 +39,8 @@ struct CloudRunOptions
 /** \brief Simplify `input`. On failure the result's `error` says why and the clouds are empty. */
 CloudRun simplifyCloud(const pcl::PCLPointCloud2& input, const Parameters& params, const CloudRunOptions& options);
 
-/** \brief Finite x, y, z points of `cloud`. */
-std::size_t finitePoints(const pcl::PCLPointCloud2& cloud);
+/** \brief Finite points of `cloud` at distinct places (coincident points count once). */
+std::size_t distinctFinitePoints(const pcl::PCLPointCloud2& cloud);
 
 }  // namespace tools
 }  // namespace pcl_ecs

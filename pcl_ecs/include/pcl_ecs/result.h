@@ -51,7 +51,8 @@ struct StageTimings
 struct Summary
 {
   std::size_t input_points = 0;      ///< points of the input (or of setIndices)
-  std::size_t finite_points = 0;     ///< of those, the finite ones the method used
+  std::size_t finite_points = 0;     ///< of those, the finite ones
+  std::size_t merged_points = 0;     ///< of those, points at exactly the place of another, merged into it
   std::size_t feature_points = 0;    ///< m
   std::size_t balls = 0;             ///< n, the number of representatives
   std::size_t output_points = 0;     ///< m + n

@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -37,6 +38,14 @@ int spatialOrderBits(std::size_t count);
  * fewer steps to encode and to sort), ties by id: deterministic (the same order for any `threads`,
  * the number of threads used; `position` is called from several at once). */
 void sortBySpatialCode(std::vector<int>& ids, const std::function<Eigen::Vector3d(int)>& position,
-                       const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int threads = 1);
+                       const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int threads = 1,
+                       std::vector<std::uint64_t>* codes = nullptr);
+
+/** \brief Remove from `ids` (sorted by sortBySpatialCode, whose `codes` are given) every id whose
+ * position equals, exactly, that of another id; one of each group stays: the smallest id. Returns
+ * the pairs (removed id, id that stays). Linear in the ids plus n log n within the runs of equal
+ * codes (the same cell), whatever the number of coincident points. */
+std::vector<std::pair<int, int>> removeCoincident(std::vector<int>& ids, const std::vector<std::uint64_t>& codes,
+                                                  const std::function<Eigen::Vector3d(int)>& position);
 
 }  // namespace pcl_ecs

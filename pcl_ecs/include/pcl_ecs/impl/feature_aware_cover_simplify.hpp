@@ -113,13 +113,27 @@ void FeatureAwareCoverSimplify<PointT>::applyFilter(PointCloud& output)
     result_.summary.finite_points = used.size();
     if (used.empty())
       return fail("the input has no finite points");
+    if (lo == hi && used.size() > 1)
+      return fail("all points are identical: there is no surface to simplify");
     // Store the points in Hilbert order: every neighbour query of every stage is then local.
-    sortBySpatialCode(
-        used, [&](int idx) {
-          const PointT& p = (*input_)[idx];
-          return Eigen::Vector3d(p.x, p.y, p.z);
-        },
-        lo, hi, resolveThreads(params_.threads));
+    const auto position = [&](int idx) {
+      const PointT& p = (*input_)[idx];
+      return Eigen::Vector3d(p.x, p.y, p.z);
+    };
+    std::vector<std::uint64_t> codes;
+    sortBySpatialCode(used, position, lo, hi, resolveThreads(params_.threads), &codes);
+    // Coincident points (merged scans, re-exports, sensors' missing returns at one spot) would
+    // give zero distances to eq. 1's weights and eq. 5's density: one point of each group stands
+    // for all of it; the others map to its output point. The order is then the one the cloud
+    // without them would have.
+    const std::size_t before_merge = used.size();
+    const std::vector<std::pair<int, int>> merged = removeCoincident(used, codes, position);
+    if (!merged.empty() && spatialOrderBits(used.size()) != spatialOrderBits(before_merge))
+      sortBySpatialCode(used, position, lo, hi, resolveThreads(params_.threads));
+    if (!merged.empty() && used.size() <= static_cast<std::size_t>(params_.k_neighbors))
+      return fail("only " + std::to_string(used.size()) + " distinct finite points (" + std::to_string(merged.size()) +
+                  " more at the same places); the neighbourhood size K = " + std::to_string(params_.k_neighbors) +
+                  " needs at least " + std::to_string(params_.k_neighbors + 1));
     const Eigen::Vector3d origin = 0.5 * (lo + hi);
     auto local = std::make_shared<LocalCloud>();
     local->resize(used.size());
@@ -210,13 +224,16 @@ void FeatureAwareCoverSimplify<PointT>::applyFilter(PointCloud& output)
                              : static_cast<std::int64_t>(result_.balls[static_cast<std::size_t>(core.cover.owner[i])].output_index);
       result_.input_to_output[static_cast<std::size_t>(used[i])] = out_idx;
     }
+    for (const auto& [gone, kept] : merged)
+      result_.input_to_output[static_cast<std::size_t>(gone)] = result_.input_to_output[static_cast<std::size_t>(kept)];
     output.width = static_cast<std::uint32_t>(output.size());
     output.height = 1;
     output.is_dense = true;
 
     result_.summary = core.summary;
     result_.summary.input_points = indices_->size();
-    result_.summary.finite_points = used.size();
+    result_.summary.finite_points = before_merge;
+    result_.summary.merged_points = merged.size();
     result_.summary.timings.preparation = t_prep_s;
     result_.summary.timings.output = std::chrono::duration<double>(Clock::now() - t_out).count();
     result_.summary.timings.total = std::chrono::duration<double>(Clock::now() - t_start).count();
