@@ -545,3 +545,44 @@ TEST_F(Cli, RoomScanWithEveryPointTwiceIsSimplifiedAsTheScanOnce)
     EXPECT_LT(n2, 0.2 * once.width) << mode << ": the doubled scan must be simplified, not returned as it is";
   }
 }
+
+// Field names travel exactly: rgb + label stays rgb + label (it became rgba through PointXYZRGBL).
+TEST_F(Cli, FieldNamesAreKeptExactly)
+{
+  pcl::PCLPointCloud2 bunny = load(kShared + "/bunny.pcd");
+  pcl::PCLPointCloud2 c;
+  c.height = 1;
+  c.width = bunny.width * bunny.height;
+  for (const char* name : {"x", "y", "z", "rgb", "label"})
+  {
+    pcl::PCLPointField f;
+    f.name = name;
+    f.datatype = std::string(name) == "label" ? pcl::PCLPointField::UINT32 : pcl::PCLPointField::FLOAT32;
+    f.count = 1;
+    f.offset = c.point_step;
+    c.fields.push_back(f);
+    c.point_step += 4;
+  }
+  pcl::PointCloud<pcl::PointXYZ> pts;
+  pcl_ecs::io::fromCloud(bunny, pts);
+  c.data.resize(static_cast<std::size_t>(c.width) * c.point_step);
+  for (std::size_t i = 0; i < pts.size(); ++i)
+  {
+    std::uint8_t* rec = c.data.data() + i * c.point_step;
+    std::memcpy(rec, &pts[i].x, 12);
+    const std::uint32_t rgb = 0xFF000000u | static_cast<std::uint32_t>(i * 2654435761u >> 8), label = static_cast<std::uint32_t>(i);
+    std::memcpy(rec + 12, &rgb, 4);
+    std::memcpy(rec + 16, &label, 4);
+  }
+  pcl_ecs::io::writeCloud(path("rgbl.pcd"), pcl_ecs::io::Format::Pcd, c, pcl_ecs::io::Encoding::Binary);
+  for (const char* out : {"o.pcd", "o.ply"})
+  {
+    ASSERT_EQ(run(path("rgbl.pcd") + " " + path(out) + " -q").code, 0) << out;
+    const pcl::PCLPointCloud2 back = load(path(out));
+    std::set<std::string> names;
+    for (const auto& f : back.fields)
+      names.insert(f.name);
+    EXPECT_EQ(names, (std::set<std::string>{"x", "y", "z", "rgb", "label"})) << out;
+  }
+  EXPECT_NE(slurp(path("o.pcd")).find("FIELDS x y z rgb label\n"), std::string::npos);
+}
