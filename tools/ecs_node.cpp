@@ -390,7 +390,7 @@ std::uint64_t runSource(const Options& o, FrameQueue& queue, Stats& stats)
     }
     catch (const StreamError& err)
     {
-      std::fprintf(stderr, "ecs_node: source: %s; dropping the connection\n", err.what());
+      std::fprintf(stderr, "ecs_node: source: %s; dropping the connection\n", tools::printable(err.what()).c_str());
     }
   };
   if (e.kind == Endpoint::Kind::Stdio)
@@ -410,7 +410,7 @@ std::uint64_t runSource(const Options& o, FrameQueue& queue, Stats& stats)
   }
   else  // directory
   {
-    std::set<std::string> seen;
+    std::set<std::string> seen, skipped;
     std::map<std::string, std::uintmax_t> pending;  // name -> size at the last poll
     while (!g_stop)
     {
@@ -421,6 +421,16 @@ std::uint64_t runSource(const Options& o, FrameQueue& queue, Stats& stats)
         const std::string name = entry.path().filename().string();
         if (name.empty() || name[0] == '.' || entry.path().extension() != ".pcd" || seen.count(name))
           continue;
+        // Regular files only (a symlink is followed): a FIFO, a socket or a dangling link is
+        // never a frame, and is skipped instead of waited for.
+        std::error_code type_ec;
+        if (!entry.is_regular_file(type_ec))
+        {
+          if (skipped.insert(name).second)
+            std::fprintf(stderr, "ecs_node: source: %s is not a regular file; skipped\n",
+                         tools::printable(name, 120).c_str());
+          continue;
+        }
         names.push_back(name);
       }
       std::sort(names.begin(), names.end());
@@ -508,7 +518,7 @@ void runSink(const Options& o, Reorder& reorder, Stats& stats)
     catch (const std::exception& err)
     {
       ++stats.sink_errors;
-      std::fprintf(stderr, "ecs_node: sink: %s; frame lost\n", err.what());
+      std::fprintf(stderr, "ecs_node: sink: %s; frame lost\n", tools::printable(err.what()).c_str());
       if (fd >= 0 && fd != STDOUT_FILENO)
       {
         ::close(fd);
@@ -565,7 +575,8 @@ int runNode(int argc, char** argv)
         {
           ++stats.bad;
           std::fprintf(stderr, "ecs_node: frame %llu%s%s is bad: %s\n", static_cast<unsigned long long>(f.seq),
-                       f.name.empty() ? "" : " ", f.name.c_str(), err.what());
+                       f.name.empty() ? "" : " ", tools::printable(f.name, 120).c_str(),
+                       tools::printable(err.what()).c_str());
           reorder.put(f.seq, std::nullopt);
         }
       }
@@ -596,7 +607,7 @@ int runNode(int argc, char** argv)
   }
   catch (const std::exception& err)
   {
-    std::fprintf(stderr, "ecs_node: source: %s\n", err.what());
+    std::fprintf(stderr, "ecs_node: source: %s\n", tools::printable(err.what()).c_str());
     g_stop = true;
   }
   // Finish the frames in flight, flush the sink.
@@ -621,12 +632,12 @@ int main(int argc, char** argv)
   }
   catch (const tools::UsageError& e)
   {
-    std::fprintf(stderr, "ecs_node: %s\n", e.what());
+    std::fprintf(stderr, "ecs_node: %s\n", tools::printable(e.what()).c_str());
     return tools::kExitUsage;
   }
   catch (const std::exception& e)
   {
-    std::fprintf(stderr, "ecs_node: internal error: %s\n", e.what());
+    std::fprintf(stderr, "ecs_node: internal error: %s\n", tools::printable(e.what()).c_str());
     return tools::kExitInternal;
   }
 }

@@ -10,6 +10,7 @@
 #include <netinet/in.h>
 #include <signal.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -406,4 +407,31 @@ TEST_F(NodeTest, PipeBetweenTwoNodes)
   }
   ::close(fd);
   EXPECT_EQ(count, 5);
+}
+
+// --once over a directory that also holds a FIFO and a dangling link named *.pcd, and a frame
+// whose bytes are terminal escape sequences: the node skips the first two, counts the third as bad
+// without echoing its bytes, delivers the rest and exits.
+TEST_F(NodeTest, OnceSkipsWhatIsNotAFileAndQuotesNoRawBytes)
+{
+  for (int i = 0; i < 3; ++i)
+    std::ofstream(dir / "in" / ("scan_" + std::to_string(i) + ".pcd"), std::ios::binary) << makeFrame(i);
+  ASSERT_EQ(::mkfifo((dir / "in" / "fifo.pcd").c_str(), 0600), 0);
+  std::filesystem::create_symlink(dir / "in" / "nowhere", dir / "in" / "dangling.pcd");
+  std::ofstream(dir / "in" / "scan_9.pcd", std::ios::binary) << "\x1b[2J\x1b]0;owned\x07" << std::string(5000, 'A') << "\n";
+  Node node({"--source", "dir:" + (dir / "in").string(), "--sink", "dir:" + (dir / "out").string(), "--once"},
+            (dir / "err.txt").string());
+  int status = 0;
+  for (int i = 0; i < 300 && ::waitpid(node.pid, &status, WNOHANG) == 0; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  ASSERT_TRUE(WIFEXITED(status)) << "the node did not exit: " << node.stderrText();
+  node.pid = -1;
+  EXPECT_EQ(WEXITSTATUS(status), 0) << node.stderrText();
+  EXPECT_EQ(outputs().size(), 3u);
+  const std::string err = node.stderrText();
+  EXPECT_NE(err.find("fifo.pcd is not a regular file"), std::string::npos) << err;
+  EXPECT_NE(err.find("dangling.pcd is not a regular file"), std::string::npos) << err;
+  EXPECT_NE(err.find("scan_9.pcd is bad"), std::string::npos) << err;
+  EXPECT_EQ(err.find('\x1b'), std::string::npos) << "an escape sequence reached the log";
+  EXPECT_EQ(err.find(std::string(1000, 'A')), std::string::npos) << "the frame was echoed whole";
 }

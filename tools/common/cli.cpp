@@ -1,5 +1,7 @@
 #include "cli.h"
 
+#include <algorithm>
+
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -199,6 +201,23 @@ void keepFreedMemory()
 #endif
 }
 
+std::string printable(const std::string& message, std::size_t max_chars)
+{
+  std::string out;
+  out.reserve(std::min(message.size(), max_chars) + 16);
+  for (std::size_t i = 0; i < message.size(); ++i)
+  {
+    if (out.size() >= max_chars)
+    {
+      out += "... (" + std::to_string(message.size() - i) + " more bytes)";
+      break;
+    }
+    const auto c = static_cast<unsigned char>(message[i]);
+    out += (c < 0x20 || c == 0x7f) ? '?' : static_cast<char>(c);
+  }
+  return out;
+}
+
 int runToolMain(const char* tool, const std::function<int()>& body)
 {
   try
@@ -207,12 +226,12 @@ int runToolMain(const char* tool, const std::function<int()>& body)
   }
   catch (const UsageError& e)
   {
-    std::fprintf(stderr, "%s: %s\n", tool, e.what());
+    std::fprintf(stderr, "%s: %s\n", tool, printable(e.what()).c_str());
     return kExitUsage;
   }
   catch (const ToolError& e)
   {
-    std::fprintf(stderr, "%s: %s\n", tool, e.what());
+    std::fprintf(stderr, "%s: %s\n", tool, printable(e.what()).c_str());
     return e.code;
   }
   catch (const std::bad_alloc&)
@@ -222,7 +241,7 @@ int runToolMain(const char* tool, const std::function<int()>& body)
   }
   catch (const std::exception& e)
   {
-    std::fprintf(stderr, "%s: internal error: %s\n", tool, e.what());
+    std::fprintf(stderr, "%s: internal error: %s\n", tool, printable(e.what()).c_str());
     return kExitInternal;
   }
 }

@@ -40,6 +40,11 @@ struct ToolError : std::runtime_error
   int code;
 };
 
+/** \brief `message` as one safe line for a terminal or a log: control characters (escape
+ * sequences, newlines from a file's content) become '?', and at most `max_chars` characters are
+ * kept, with a count of the rest. */
+std::string printable(const std::string& message, std::size_t max_chars = 400);
+
 /** \brief Run `body` and turn what it throws into "tool: message" on stderr and the documented
  * exit code (UsageError 2, ToolError its own, out of memory and anything else 1). */
 int runToolMain(const char* tool, const std::function<int()>& body);
