@@ -618,3 +618,48 @@ TEST(Filter, ManyPointsAtOneSpotAreOnePoint)
   EXPECT_LE(out_b.size(), out_a.size() + 3);
   EXPECT_GE(out_b.size(), out_a.size());
 }
+
+// The method is scale-free, and so is the filter at extreme scales: the bunny in units 1e-24 to
+// 1e30 of its own is simplified as at unit scale (it hung, returned the input unchanged, or
+// reported a zero error before), with lengths reported in the input's units.
+TEST(Filter, ExtremeScalesGiveTheUnitScaleResult)
+{
+  auto bunny = std::make_shared<Cloud>();
+  ASSERT_EQ(pcl::io::loadPCDFile(sharedData("bunny.pcd"), *bunny), 0);
+  Filter unit;
+  Cloud out_unit;
+  unit.setInputCloud(bunny);
+  unit.filter(out_unit);
+  const pcl_ecs::Summary ref = unit.getResult().summary;
+  for (const double k : {1e-24, 1e-8, 1e8, 1e30})
+  {
+    auto scaled = std::make_shared<Cloud>();
+    for (const auto& p : *bunny)
+      scaled->push_back(pcl::PointXYZ(static_cast<float>(p.x * k), static_cast<float>(p.y * k), static_cast<float>(p.z * k)));
+    Filter f;
+    Cloud out;
+    f.setInputCloud(scaled);
+    f.filter(out);
+    ASSERT_TRUE(f.getResult().error.empty()) << k << ": " << f.getResult().error;
+    const pcl_ecs::Summary& s = f.getResult().summary;
+    EXPECT_NEAR(static_cast<double>(out.size()), static_cast<double>(out_unit.size()), 0.01 * out_unit.size()) << k;
+    EXPECT_NEAR(static_cast<double>(s.feature_points), static_cast<double>(ref.feature_points), 3.0) << k;
+    EXPECT_NEAR(s.max_error, ref.max_error, 0.05 * ref.max_error) << k;
+    EXPECT_NEAR(s.bbox_diagonal / k, ref.bbox_diagonal, 1e-5 * ref.bbox_diagonal) << k;
+    EXPECT_NEAR(s.mean_spacing / k, ref.mean_spacing, 1e-3 * ref.mean_spacing) << k;
+    EXPECT_NEAR(s.mean_abs_curvature * k, ref.mean_abs_curvature, 1e-3 * ref.mean_abs_curvature) << k;
+    const auto& b = f.getResult().balls.front();
+    EXPECT_LE(b.radius, 10.0 * s.neighborhood_radius) << k;
+    EXPECT_LE((b.representative - b.centre).norm(), b.radius * (1 + 1e-6) + 1e-300) << k;
+  }
+  // An extent below what float can resolve is refused with a message.
+  auto tiny = std::make_shared<Cloud>();
+  for (int i = 0; i < 100; ++i)
+    tiny->push_back(pcl::PointXYZ(1e-38f * static_cast<float>(i % 10), 1e-38f * static_cast<float>(i / 10), 0.0f));
+  Filter t;
+  Cloud out_t;
+  t.setInputCloud(tiny);
+  t.filter(out_t);
+  EXPECT_TRUE(out_t.empty());
+  EXPECT_NE(t.getResult().error.find("too small for float precision"), std::string::npos) << t.getResult().error;
+}

@@ -381,4 +381,26 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
   return Status::Ok;
 }
 
+double frameScale(double extent)
+{
+  if (extent >= std::ldexp(1.0, -20) && extent <= std::ldexp(1.0, 20))
+    return 1.0;
+  int e = 0;
+  std::frexp(extent, &e);  // extent = m 2^e, m in [0.5, 1)
+  const int k = 2 * static_cast<int>(std::floor(e / 2.0));  // even, so extent 2^-k is in [0.5, 2)
+  return std::ldexp(1.0, -k);
+}
+
+void unscaleSummary(Summary& s, double scale)
+{
+  if (scale == 1.0)
+    return;
+  s.feature_threshold /= scale;
+  s.mean_spacing /= scale;
+  s.neighborhood_radius /= scale;
+  s.bbox_diagonal /= scale;
+  s.max_gap /= scale;
+  s.mean_abs_curvature *= scale;
+}
+
 }  // namespace pcl_ecs

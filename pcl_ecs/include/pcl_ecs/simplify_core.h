@@ -45,4 +45,14 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud, const NormalList* input_
 /** \brief Diagonal of the axis-aligned bounding box of `cloud`. */
 double boundingBoxDiagonal(const LocalCloud& cloud);
 
+/** \brief The factor that brings a cloud of largest extent `extent` into float's comfortable
+ * range for the local frame: 1 for extents in [2^-20, 2^20] (everyday units, left as they are),
+ * otherwise the power of four that puts the extent in [0.5, 2). A power of four scales every
+ * length, square and square root exactly. */
+double frameScale(double extent);
+
+/** \brief Give the lengths of a summary computed in a frame scaled by `scale` back in the input's
+ * units (δ, spacing, neighbourhood radius, diagonal, gap bound; curvature inversely). */
+void unscaleSummary(Summary& summary, double scale);
+
 }  // namespace pcl_ecs

@@ -135,6 +135,13 @@ void FeatureAwareCoverSimplify<PointT>::applyFilter(PointCloud& output)
                   " more at the same places); the neighbourhood size K = " + std::to_string(params_.k_neighbors) +
                   " needs at least " + std::to_string(params_.k_neighbors + 1));
     const Eigen::Vector3d origin = 0.5 * (lo + hi);
+    // Extreme extents (micrometre parts in metres, planets in millimetres) are brought into
+    // float's comfortable range by a power of four, which scales every length exactly; the
+    // method is scale-free, and results are given back in the input's units.
+    const double extent = (hi - lo).maxCoeff();
+    if (!(extent > 1e-30))
+      return fail("the cloud's extent (" + std::to_string(extent) + ") is too small for float precision");
+    const double scale = frameScale(extent);
     auto local = std::make_shared<LocalCloud>();
     local->resize(used.size());
     NormalList input_normals;
@@ -143,7 +150,7 @@ void FeatureAwareCoverSimplify<PointT>::applyFilter(PointCloud& output)
     for (std::size_t i = 0; i < used.size(); ++i)
     {
       const PointT& p = (*input_)[used[i]];
-      (*local)[i].getVector3fMap() = (Eigen::Vector3d(p.x, p.y, p.z) - origin).template cast<float>();
+      (*local)[i].getVector3fMap() = ((Eigen::Vector3d(p.x, p.y, p.z) - origin) * scale).template cast<float>();
       if (params_.use_input_normals)
         input_normals[i] = detail::getNormal(p);
     }
@@ -168,7 +175,7 @@ void FeatureAwareCoverSimplify<PointT>::applyFilter(PointCloud& output)
     std::vector<std::int64_t> local_to_output(used.size(), -1);
     std::size_t o = 0;
     // Estimated normals are oriented towards the sensor origin, as PCL's NormalEstimation does.
-    const Eigen::Vector3d viewpoint = input_->sensor_origin_.template head<3>().template cast<double>() - origin;
+    const Eigen::Vector3d viewpoint = (input_->sensor_origin_.template head<3>().template cast<double>() - origin) * scale;
     auto oriented = [&](const Eigen::Vector3f& n, const Eigen::Vector3d& at) -> Eigen::Vector3f {
       if (params_.use_input_normals)
         return n;
@@ -197,16 +204,16 @@ void FeatureAwareCoverSimplify<PointT>::applyFilter(PointCloud& output)
       const CoverBall& cb = core.cover.balls[b];
       PointT& p = output[o];
       p = (*input_)[used[static_cast<std::size_t>(cb.attribute_source)]];
-      const Eigen::Vector3d world = cb.representative + origin;
+      const Eigen::Vector3d world = cb.representative / scale + origin;
       p.x = static_cast<float>(world.x());
       p.y = static_cast<float>(world.y());
       p.z = static_cast<float>(world.z());
       detail::setNormal(p, oriented(cb.normal, cb.representative));
       Ball& ball = result_.balls[b];
       ball.centre_index = used[static_cast<std::size_t>(cb.centre)];
-      ball.centre = (*local)[cb.centre].getVector3fMap().template cast<double>() + origin;
+      ball.centre = (*local)[cb.centre].getVector3fMap().template cast<double>() / scale + origin;
       ball.representative = world;
-      ball.radius = cb.radius;
+      ball.radius = cb.radius / scale;
       ball.tolerance = cb.tolerance;
       ball.error = cb.error;
       ball.replaced = cb.replaced;
@@ -231,6 +238,7 @@ void FeatureAwareCoverSimplify<PointT>::applyFilter(PointCloud& output)
     output.is_dense = true;
 
     result_.summary = core.summary;
+    unscaleSummary(result_.summary, scale);
     result_.summary.input_points = indices_->size();
     result_.summary.finite_points = before_merge;
     result_.summary.merged_points = merged.size();
