@@ -586,3 +586,32 @@ TEST_F(Cli, FieldNamesAreKeptExactly)
   }
   EXPECT_NE(slurp(path("o.pcd")).find("FIELDS x y z rgb label\n"), std::string::npos);
 }
+
+// A header that claims more points than this machine could hold in memory (a 2 GB sparse file,
+// a small compressed file claiming 1 GiB of points) is refused before anything is allocated.
+TEST_F(Cli, CloudsLargerThanMemoryAreRefusedBeforeReading)
+{
+  const std::uint64_t points = 4000000000ull;  // 48 GB of xyz: more than any CI machine has
+  const std::string header = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH " +
+                             std::to_string(points) + "\nHEIGHT 1\nPOINTS " + std::to_string(points) + "\nDATA ";
+  std::ofstream(path("sparse.pcd"), std::ios::binary) << header << "binary\n";
+  fs::resize_file(path("sparse.pcd"), header.size() + 7 + points * 12);  // sparse: no disk used
+  {
+    std::ofstream bomb(path("bomb.pcd"), std::ios::binary);
+    bomb << header << "binary_compressed\n";
+    const std::uint32_t sizes[2] = {16, 0xFFFFFFF0u};  // 16 bytes that would unpack to 4 GiB
+    bomb.write(reinterpret_cast<const char*>(sizes), 8);
+    bomb << std::string(16, '\0');
+  }
+  for (const char* name : {"sparse.pcd", "bomb.pcd"})
+  {
+    const RunResult r = run(path(name) + " " + path("out.pcd"));
+    EXPECT_EQ(r.code, 3) << name << ": " << r.err;
+    if (std::string(name) == "sparse.pcd")
+      EXPECT_NE(r.err.find("use --stream"), std::string::npos) << r.err;
+#ifndef PCL_ECS_SANITIZED  // the sanitizers' shadow memory is not the tool's
+    EXPECT_LT(r.peak_rss_kib, 200L * 1024) << name << ": peak RSS " << r.peak_rss_kib / 1024 << " MiB";
+#endif
+    EXPECT_FALSE(fs::exists(path("out.pcd")));
+  }
+}

@@ -1980,6 +1980,17 @@ std::uint64_t physicalMemory()
   return pages > 0 && page > 0 ? static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page) : 0;
 }
 
+std::uint64_t availableMemory()
+{
+  std::ifstream in("/proc/meminfo");
+  std::string key, unit;
+  std::uint64_t kib = 0;
+  while (in >> key >> kib >> unit)
+    if (key == "MemAvailable:")
+      return kib * 1024;
+  return physicalMemory();
+}
+
 std::vector<Tile> planTiles(const std::vector<std::array<double, 2>>& sample, std::size_t max_per_tile, double halo)
 {
   const std::size_t bound = std::max<std::size_t>(1, max_per_tile);

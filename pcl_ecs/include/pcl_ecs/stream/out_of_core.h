@@ -115,6 +115,10 @@ bool parseByteSize(const std::string& text, std::uint64_t& bytes);
 /** \brief Physical memory of this machine in bytes (0 when unknown). */
 std::uint64_t physicalMemory();
 
+/** \brief Memory available to a new allocation now (MemAvailable of /proc/meminfo; the physical
+ * memory when that cannot be read). */
+std::uint64_t availableMemory();
+
 /** \brief Split the 2D sample points into the fewest tiles of at most `max_per_tile` samples each,
  * counting with a tile's own samples those within `halo` of its rectangle, as even as possible, by
  * recursive splits of the longer side (a part that needs m tiles is split m/2 : m - m/2;
