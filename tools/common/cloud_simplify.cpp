@@ -68,7 +68,13 @@ CloudRun simplifyCloud(const pcl::PCLPointCloud2& input, const Parameters& given
   if (options.target_ratio > 0.0)
     params.target_size = std::max<std::size_t>(
         1, static_cast<std::size_t>(std::llround(options.target_ratio * static_cast<double>(distinctFinitePoints(input)))));
-  const Eigen::Vector3d shift = io::boundingBoxCentre(input);
+  // Float coordinates go to the filter as they are (it works in its own local frame: the same
+  // result, bit for bit, as the library on the same points); wider ones are brought near zero in
+  // double first, so that float keeps them precise.
+  bool float_coordinates = true;
+  for (const int f : {fx, fy, fz})
+    float_coordinates = float_coordinates && fields[static_cast<std::size_t>(f)].datatype == pcl::PCLPointField::FLOAT32;
+  const Eigen::Vector3d shift = float_coordinates ? Eigen::Vector3d::Zero() : io::boundingBoxCentre(input);
   if (params.use_input_normals)
   {
     if (io::fieldIndex(fields, "normal_x") < 0 || io::fieldIndex(fields, "normal_y") < 0 ||
