@@ -493,9 +493,9 @@ int runTool(int argc, char** argv)
       points = header.header().points;
       step = header.header().point_step;
     }
-    catch (const std::exception& e)
+    catch (const std::exception&)
     {
-      throw ToolError(kExitInput, e.what());
+      // Not a readable PCD header: the full read below says what is wrong, as for any file.
     }
     const double need = static_cast<double>(points) * (kInMemoryBytesPerPoint + 3.0 * static_cast<double>(step));
     const double available = static_cast<double>(stream::availableMemory());
