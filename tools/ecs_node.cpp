@@ -8,6 +8,8 @@
 #include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/feature_aware_cover_simplify.h>
 #include <pcl_ecs/io/cloud_io.h>
+#include <pcl_ecs/stream/out_of_core.h>
+#include <pcl_ecs/io/pcd_stream.h>
 #include <pcl_ecs/version.h>
 
 #include <algorithm>
@@ -20,7 +22,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <map>
+#include <sstream>
 #include <mutex>
 #include <optional>
 #include <set>
@@ -57,6 +61,8 @@ the frames in flight, flush the sink, print a summary and exit 0.
   --stats-interval S       seconds between stats lines on stderr, 0 = none (default 5)
   --poll-ms MS             directory source: how often to look for new files (default 100)
   --once                   directory source: process the files present, then exit
+  --max-frame-bytes SIZE   largest frame, and largest cloud a frame may decode to (points x
+                           record size), e.g. 64M (default 256M); larger ones are bad frames
   --quiet                  no stats lines, only errors and the summary
 
 Frames on TCP and pipes: an 8-byte little-endian length, then that many bytes holding a complete
@@ -76,6 +82,7 @@ struct Options
   double stats_interval = 5.0;
   int poll_ms = 100;
   bool once = false, quiet = false;
+  std::uint64_t max_frame_bytes = node::kDefaultMaxFrameBytes;
   Parameters params;
 };
 
@@ -91,7 +98,8 @@ void applyYaml(const std::string& path, Options& o)
     throw tools::UsageError(path + ": " + e.what());
   }
   static const std::set<std::string> known = {"source", "sink", "queue", "policy", "workers",
-                                              "stats_interval", "poll_ms", "once", "quiet", "filter"};
+                                              "stats_interval", "poll_ms", "once", "quiet", "filter",
+                                              "max_frame_bytes"};
   for (const auto& kv : y)
     if (!known.count(kv.first.as<std::string>()))
       throw tools::UsageError(path + ": unknown key '" + kv.first.as<std::string>() + "'");
@@ -100,6 +108,8 @@ void applyYaml(const std::string& path, Options& o)
     if (y["source"]) o.source = y["source"].as<std::string>();
     if (y["sink"]) o.sink = y["sink"].as<std::string>();
     if (y["queue"]) o.queue = y["queue"].as<std::size_t>();
+    if (y["max_frame_bytes"] && !stream::parseByteSize(y["max_frame_bytes"].as<std::string>(), o.max_frame_bytes))
+      throw tools::UsageError(path + ": max_frame_bytes must be a size like 64M");
     if (y["policy"])
     {
       const std::string p = y["policy"].as<std::string>();
@@ -163,6 +173,12 @@ Options parseArgs(int argc, char** argv, bool& done)
       o.sink = value();
     else if (a == "--queue")
       o.queue = tools::parseUnsignedFlag(a, value());
+    else if (a == "--max-frame-bytes")
+    {
+      const std::string v = value();
+      if (!stream::parseByteSize(v, o.max_frame_bytes))
+        throw tools::UsageError("--max-frame-bytes: '" + v + "' is not a size (like 64M)");
+    }
     else if (a == "--policy")
     {
       const std::string p = value();
@@ -350,8 +366,17 @@ private:
 };
 
 /// Simplify one frame; throws with the reason when it cannot be parsed or processed.
-Outcome process(const Frame& f, const Parameters& params)
+Outcome process(const Frame& f, const Parameters& params, std::uint64_t max_bytes)
 {
+  // The header says what the frame decodes to: refused before a compressed frame can expand.
+  {
+    std::istringstream lines(f.bytes.substr(0, std::min<std::size_t>(f.bytes.size(), 64u << 10)));
+    const io::PcdHeader h = io::parsePcdHeader([&](std::string& line) { return static_cast<bool>(std::getline(lines, line)); },
+                                               std::numeric_limits<std::uint64_t>::max());
+    if (h.points * h.point_step > max_bytes)
+      throw std::runtime_error(std::to_string(h.points) + " points of " + std::to_string(h.point_step) +
+                               " bytes exceed --max-frame-bytes " + std::to_string(max_bytes));
+  }
   pcl::PCLPointCloud2 blob;
   io::parsePcd(f.bytes, blob);
   Outcome out;
@@ -385,11 +410,16 @@ std::uint64_t runSource(const Options& o, FrameQueue& queue, Stats& stats)
     std::string bytes;
     try
     {
-      while (!g_stop && readFrame(fd, bytes, &g_stop))
+      while (!g_stop && readFrame(fd, bytes, &g_stop, o.max_frame_bytes))
         accept_frame(std::move(bytes), "");
     }
     catch (const StreamError& err)
     {
+      if (g_stop)
+      {
+        ++stats.in;  // a frame cut short by the stop: it came in, and is dropped
+        ++stats.dropped;
+      }
       std::fprintf(stderr, "ecs_node: source: %s; dropping the connection\n", tools::printable(err.what()).c_str());
     }
   };
@@ -567,7 +597,7 @@ int runNode(int argc, char** argv)
       {
         try
         {
-          Outcome out = process(f, o.params);
+          Outcome out = process(f, o.params, o.max_frame_bytes);
           stats.points_in += out.points_in;
           reorder.put(f.seq, std::move(out));
         }

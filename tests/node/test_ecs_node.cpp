@@ -435,3 +435,64 @@ TEST_F(NodeTest, OnceSkipsWhatIsNotAFileAndQuotesNoRawBytes)
   EXPECT_EQ(err.find('\x1b'), std::string::npos) << "an escape sequence reached the log";
   EXPECT_EQ(err.find(std::string(1000, 'A')), std::string::npos) << "the frame was echoed whole";
 }
+
+namespace
+{
+long residentKib(pid_t pid)
+{
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  std::string key;
+  long value = 0;
+  while (in >> key)
+    if (key == "VmRSS:" && in >> value)
+      return value;
+  return -1;
+}
+}  // namespace
+
+// Hostile peers: a length prefix that announces 1 GiB and then nothing holds no memory for it; a
+// length above --max-frame-bytes drops the connection, not the node; a small compressed frame
+// whose header decodes to more than the limit is a bad frame; SIGTERM while a frame is half
+// received ends the node within 2 s, the partial frame counted as dropped.
+TEST_F(NodeTest, HostileFramesAreBoundedAndSigtermIsObeyed)
+{
+  const int port = freePort();
+  Node node({"--source", "tcp:" + std::to_string(port), "--sink", "dir:" + (dir / "out").string(),
+             "--max-frame-bytes", "2G", "--quiet"},
+            (dir / "err.txt").string());
+  // 1. A frame whose header says it decodes to 64M points: bad, before anything is decoded.
+  int fd = connectRetry(port);
+  ASSERT_GE(fd, 0);
+  std::string claim = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 200000000\nHEIGHT 1\n"
+                      "POINTS 200000000\nDATA binary_compressed\n";
+  const std::uint32_t sizes[2] = {16, 2400000000u};
+  claim.append(reinterpret_cast<const char*>(sizes), 8);
+  claim.append(16, '\0');
+  writeFrame(fd, claim);
+  writeFrame(fd, makeFrame(0));
+  ::close(fd);
+  // 2. A frame announced as 1 GiB, then silence.
+  fd = connectRetry(port);
+  ASSERT_GE(fd, 0);
+  const std::uint64_t len = 1ull << 30;
+  std::uint8_t prefix[8];
+  for (int i = 0; i < 8; ++i)
+    prefix[i] = static_cast<std::uint8_t>(len >> (8 * i));
+  writeAll(fd, prefix, 8);
+  writeAll(fd, "VERSION", 7);
+  std::this_thread::sleep_for(std::chrono::milliseconds(700));
+  EXPECT_LT(residentKib(node.pid), 200L * 1024) << "the announced length was allocated";
+  // 3. SIGTERM now, with that frame half received.
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(node.stop(), 0);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_LT(seconds, 2.0) << "SIGTERM took " << seconds << " s";
+  ::close(fd);
+  const auto s = node.summary();  // in, out, dropped, bad
+  EXPECT_EQ(s[1], 1) << node.stderrText();
+  EXPECT_EQ(s[3], 1) << node.stderrText();
+  EXPECT_EQ(s[2], 1) << "the cut frame counts as dropped: " << node.stderrText();
+  EXPECT_EQ(s[0], s[1] + s[2] + s[3]) << "every frame that came in is accounted for";
+  EXPECT_NE(node.stderrText().find("exceed --max-frame-bytes"), std::string::npos) << node.stderrText();
+  EXPECT_EQ(outputs().size(), 1u);
+}

@@ -93,6 +93,8 @@ bool readExact(int fd, void* data, std::size_t n, const volatile bool* stop)
       {
         if (*stop && got == 0)
           return false;
+        if (*stop)
+          throw StreamError("stopped in the middle of a frame");
         continue;
       }
       if (r < 0 && errno == EINTR)
@@ -145,7 +147,7 @@ void writeAll(int fd, const void* data, std::size_t n)
   }
 }
 
-bool readFrame(int fd, std::string& frame, const volatile bool* stop)
+bool readFrame(int fd, std::string& frame, const volatile bool* stop, std::uint64_t max_bytes)
 {
   std::uint8_t len_bytes[8];
   if (!readExact(fd, len_bytes, 8, stop))
@@ -153,11 +155,20 @@ bool readFrame(int fd, std::string& frame, const volatile bool* stop)
   std::uint64_t len = 0;
   for (int i = 7; i >= 0; --i)
     len = (len << 8) | len_bytes[i];
-  if (len > kMaxFrameBytes)
-    throw StreamError("frame length " + std::to_string(len) + " exceeds 1 GiB: corrupt stream");
-  frame.resize(len);
-  if (len > 0 && !readExact(fd, frame.data(), len, nullptr))
-    throw StreamError("the stream ended in the middle of a frame");
+  if (len > max_bytes)
+    throw StreamError("frame length " + std::to_string(len) + " exceeds --max-frame-bytes " + std::to_string(max_bytes));
+  // Grown chunk by chunk as the bytes arrive: a peer that announces a large frame and sends
+  // nothing holds no memory for it.
+  constexpr std::uint64_t kChunk = 1u << 20;
+  frame.clear();
+  while (frame.size() < len)
+  {
+    const std::size_t at = frame.size();
+    const auto chunk = static_cast<std::size_t>(std::min<std::uint64_t>(kChunk, len - at));
+    frame.resize(at + chunk);
+    if (!readExact(fd, frame.data() + at, chunk, stop))
+      throw StreamError(stop && *stop ? "stopped in the middle of a frame" : "the stream ended in the middle of a frame");
+  }
   return true;
 }
 

@@ -36,8 +36,9 @@ Endpoint parseEndpoint(const std::string& text, bool is_source);
 /** \brief A cloud as a complete binary PCD file in memory. */
 std::string serializeBinaryPcd(const pcl::PCLPointCloud2& cloud);
 
-/** \brief Largest frame accepted (1 GiB): a larger length is a corrupt stream. */
-constexpr std::uint64_t kMaxFrameBytes = 1ull << 30;
+/** \brief Default of --max-frame-bytes: the largest frame accepted, and the largest cloud a
+ * frame may decode to (points × record size). */
+constexpr std::uint64_t kDefaultMaxFrameBytes = 256ull << 20;
 
 /** \brief Thrown when a stream breaks (closed mid-frame, oversize length, I/O error). */
 struct StreamError : std::runtime_error
@@ -45,14 +46,18 @@ struct StreamError : std::runtime_error
   using std::runtime_error::runtime_error;
 };
 
-/** \brief Read exactly n bytes; false on a clean end of stream before the first byte; throws
- * StreamError on an end in the middle. `stop` is polled every 100 ms while waiting. */
+/** \brief Read exactly n bytes; false on a clean end of stream, or a stop, before the first byte;
+ * throws StreamError on an end or a stop in the middle. `stop` is polled every 100 ms while
+ * waiting. */
 bool readExact(int fd, void* data, std::size_t n, const volatile bool* stop = nullptr);
 /** \brief Write all n bytes (handles partial writes); throws StreamError. */
 void writeAll(int fd, const void* data, std::size_t n);
 
-/** \brief Read one frame; false at a clean end of stream. */
-bool readFrame(int fd, std::string& frame, const volatile bool* stop = nullptr);
+/** \brief Read one frame; false at a clean end of stream. A length above `max_bytes` is a
+ * StreamError; the frame's memory grows with the bytes that arrive, not with the length a peer
+ * announces. */
+bool readFrame(int fd, std::string& frame, const volatile bool* stop = nullptr,
+               std::uint64_t max_bytes = kDefaultMaxFrameBytes);
 /** \brief Write one frame (length prefix + bytes). */
 void writeFrame(int fd, const std::string& frame);
 
