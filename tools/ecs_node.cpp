@@ -23,6 +23,7 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <list>
 #include <map>
 #include <sstream>
 #include <mutex>
@@ -392,12 +393,17 @@ Outcome process(const Frame& f, const Parameters& params, std::uint64_t max_byte
   return out;
 }
 
+/// Producers connected at once to a TCP source, each with its reader (more are refused).
+constexpr std::size_t kMaxConnections = 256;
+
 /// Reads frames from the source until it ends or the node is stopped; returns the count.
 std::uint64_t runSource(const Options& o, FrameQueue& queue, Stats& stats)
 {
   const Endpoint e = parseEndpoint(o.source, true);
   std::uint64_t seq = 0;
+  std::mutex accept_mutex;  // connections read in parallel; frames are numbered as they complete
   auto accept_frame = [&](std::string bytes, const std::string& name) {
+    std::lock_guard<std::mutex> lock(accept_mutex);
     Frame f;
     f.seq = seq++;
     f.name = name;
@@ -427,16 +433,47 @@ std::uint64_t runSource(const Options& o, FrameQueue& queue, Stats& stats)
     read_stream(STDIN_FILENO);
   else if (e.kind == Endpoint::Kind::Tcp)
   {
+    // Every connection has a reader of its own: an idle or slow producer holds up no other.
     const int lfd = listenTcp(e.port);
+    struct Reader
+    {
+      std::thread thread;
+      std::shared_ptr<std::atomic<bool>> done;
+    };
+    std::list<Reader> readers;
+    auto reap = [&] {
+      for (auto it = readers.begin(); it != readers.end();)
+        if (it->done->load())
+        {
+          it->thread.join();
+          it = readers.erase(it);
+        }
+        else
+          ++it;
+    };
     while (!g_stop)
     {
       const int fd = acceptTcp(lfd, 100);
+      reap();
       if (fd < 0)
         continue;
-      read_stream(fd);
-      ::close(fd);
+      if (readers.size() >= kMaxConnections)
+      {
+        std::fprintf(stderr, "ecs_node: source: %zu connections already open; one more refused\n", readers.size());
+        ::close(fd);
+        continue;
+      }
+      auto done = std::make_shared<std::atomic<bool>>(false);
+      readers.push_back({std::thread([&read_stream, fd, done] {
+                           read_stream(fd);
+                           ::close(fd);
+                           done->store(true);
+                         }),
+                         done});
     }
     ::close(lfd);
+    for (auto& r : readers)
+      r.thread.join();
   }
   else  // directory
   {

@@ -14,12 +14,14 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <random>
 #include <regex>
+#include <set>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -495,4 +497,44 @@ TEST_F(NodeTest, HostileFramesAreBoundedAndSigtermIsObeyed)
   EXPECT_EQ(s[0], s[1] + s[2] + s[3]) << "every frame that came in is accounted for";
   EXPECT_NE(node.stderrText().find("exceed --max-frame-bytes"), std::string::npos) << node.stderrText();
   EXPECT_EQ(outputs().size(), 1u);
+}
+
+// Many producers at once: an idle connection holds up nobody, and 200 clients that each send one
+// frame at the same moment all get through, every frame counted.
+TEST_F(NodeTest, ManyProducersAtOnceAndAnIdleOne)
+{
+  const int port = freePort();
+  Node node({"--source", "tcp:" + std::to_string(port), "--sink", "dir:" + (dir / "out").string(), "--workers",
+             "2", "--queue", "16", "--quiet"},
+            (dir / "err.txt").string());
+  const int idle = connectRetry(port);
+  ASSERT_GE(idle, 0);
+  const std::uint8_t half[3] = {0x10, 0, 0};  // part of a length prefix, then nothing
+  writeAll(idle, half, 3);
+  std::vector<std::thread> clients;
+  std::atomic<int> sent{0};
+  for (int c = 0; c < 200; ++c)
+    clients.emplace_back([&, c] {
+      const int fd = connectRetry(port);
+      if (fd < 0)
+        return;
+      writeFrame(fd, makeFrame(c, 300));
+      ::close(fd);
+      ++sent;
+    });
+  for (auto& t : clients)
+    t.join();
+  ASSERT_EQ(sent.load(), 200);
+  for (int i = 0; i < 300 && outputs().size() < 200; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_EQ(outputs().size(), 200u) << "frames were held up or lost: " << node.stderrText();
+  EXPECT_EQ(node.stop(), 0);
+  ::close(idle);
+  const auto s = node.summary();
+  EXPECT_EQ(s[1], 200) << node.stderrText();
+  EXPECT_EQ(s[0], s[1] + s[2] + s[3]) << node.stderrText();
+  std::set<int> numbers;
+  for (const auto& f : outputs())
+    numbers.insert(frameNumber(slurp(f)));
+  EXPECT_EQ(numbers.size(), 200u);
 }
