@@ -39,12 +39,28 @@ Result runFilter(const pcl::PCLPointCloud2& input, const Eigen::Vector3d& shift,
   filter.filter(out);
   return filter.getResult();
 }
+
+/// Float coordinates go to the filter unshifted (it works in its own local frame: the same result,
+/// bit for bit, as the library on the same points); wider ones are brought near zero in double
+/// first, so that float keeps them precise.
+Eigen::Vector3d coordinateShift(const pcl::PCLPointCloud2& cloud)
+{
+  for (const char* axis : {"x", "y", "z"})
+  {
+    const int f = io::fieldIndex(cloud.fields, axis);
+    if (f >= 0 && cloud.fields[static_cast<std::size_t>(f)].datatype != pcl::PCLPointField::FLOAT32)
+      return io::boundingBoxCentre(cloud);
+  }
+  return Eigen::Vector3d::Zero();
+}
+
 }  // namespace
 
 std::size_t distinctFinitePoints(const pcl::PCLPointCloud2& cloud)
 {
+  // The points as the filter will see them, so that "distinct" means what its merge means.
   pcl::PointCloud<pcl::PointXYZ> xyz;
-  io::fromCloud(cloud, xyz, io::boundingBoxCentre(cloud));
+  io::fromCloud(cloud, xyz, coordinateShift(cloud));
   std::vector<std::array<float, 3>> p;
   p.reserve(xyz.size());
   for (const auto& q : xyz)
@@ -68,13 +84,7 @@ CloudRun simplifyCloud(const pcl::PCLPointCloud2& input, const Parameters& given
   if (options.target_ratio > 0.0)
     params.target_size = std::max<std::size_t>(
         1, static_cast<std::size_t>(std::llround(options.target_ratio * static_cast<double>(distinctFinitePoints(input)))));
-  // Float coordinates go to the filter as they are (it works in its own local frame: the same
-  // result, bit for bit, as the library on the same points); wider ones are brought near zero in
-  // double first, so that float keeps them precise.
-  bool float_coordinates = true;
-  for (const int f : {fx, fy, fz})
-    float_coordinates = float_coordinates && fields[static_cast<std::size_t>(f)].datatype == pcl::PCLPointField::FLOAT32;
-  const Eigen::Vector3d shift = float_coordinates ? Eigen::Vector3d::Zero() : io::boundingBoxCentre(input);
+  const Eigen::Vector3d shift = coordinateShift(input);
   if (params.use_input_normals)
   {
     if (io::fieldIndex(fields, "normal_x") < 0 || io::fieldIndex(fields, "normal_y") < 0 ||
