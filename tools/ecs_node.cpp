@@ -273,13 +273,20 @@ struct Stats
   }
 };
 
-/// Finished frames wait here until every earlier one is done: the sink sees them in order.
+/// Finished frames wait here until every earlier one is done: the sink sees them in order. At most
+/// `capacity` finished frames wait (the one the sink needs next is always taken): a sink that
+/// cannot deliver holds up the workers, and so the queue and its policy, instead of piling up.
 class Reorder
 {
 public:
+  explicit Reorder(std::size_t capacity) : capacity_(std::max<std::size_t>(1, capacity)) {}
   void put(std::uint64_t seq, std::optional<Outcome> outcome)  // nullopt: skipped (bad, dropped)
   {
-    std::lock_guard<std::mutex> lock(m_);
+    std::unique_lock<std::mutex> lock(m_);
+    if (outcome)  // g_stop comes from a signal handler, which notifies no one: look every 100 ms
+      while (!(held_ < capacity_ || seq == next_ || g_stop))
+        cv_.wait_for(lock, std::chrono::milliseconds(100));
+    held_ += outcome ? 1 : 0;
     done_[seq] = std::move(outcome);
     cv_.notify_all();
   }
@@ -291,7 +298,9 @@ public:
     if (!done_.count(next_))
       return false;
     out = std::move(done_[next_]);
+    held_ -= out ? 1 : 0;
     done_.erase(next_++);
+    cv_.notify_all();  // room for a worker waiting to put
     return true;
   }
   void end(std::uint64_t total)
@@ -306,6 +315,7 @@ private:
   std::mutex m_;
   std::condition_variable cv_;
   std::map<std::uint64_t, std::optional<Outcome>> done_;
+  std::size_t capacity_, held_ = 0;
   std::uint64_t next_ = 0, total_ = 0;
   bool ended_ = false;
 };
@@ -575,7 +585,7 @@ void runSink(const Options& o, Reorder& reorder, Stats& stats)
           if (fd < 0)
             std::this_thread::sleep_for(std::chrono::milliseconds(100));
         }
-        writeFrame(fd, out.bytes);
+        writeFrame(fd, out.bytes, &g_stop);  // a consumer that does not read cannot hold up a stop
       }
       ++delivered;
       ++stats.out;
@@ -624,7 +634,7 @@ int runNode(int argc, char** argv)
   std::signal(SIGPIPE, SIG_IGN);
 
   Stats stats;
-  Reorder reorder;
+  Reorder reorder(o.queue);
   FrameQueue queue(o.queue, o.drop_oldest, stats, reorder);
   std::vector<std::thread> workers;
   for (int w = 0; w < o.workers; ++w)

@@ -538,3 +538,46 @@ TEST_F(NodeTest, ManyProducersAtOnceAndAnIdleOne)
     numbers.insert(frameNumber(slurp(f)));
   EXPECT_EQ(numbers.size(), 200u);
 }
+
+// A consumer that connects and never reads: the node holds at most --queue finished frames, and
+// SIGTERM still ends it within 2 s, every frame accounted for (lost ones as sink errors).
+TEST_F(NodeTest, SigtermWithAConsumerThatNeverReads)
+{
+  const int in_port = freePort(), out_port = freePort();
+  // --terr 1e-5 keeps nearly every point: megabytes of output that no socket buffer holds.
+  Node node({"--source", "tcp:" + std::to_string(in_port), "--sink", "tcp-listen:" + std::to_string(out_port),
+             "--queue", "4", "--quiet", "--terr", "1e-5"},
+            (dir / "err.txt").string());
+  const int consumer = connectRetry(out_port);
+  ASSERT_GE(consumer, 0);
+  const int small_buffer = 4096;
+  ::setsockopt(consumer, SOL_SOCKET, SO_RCVBUF, &small_buffer, sizeof small_buffer);
+  std::thread producer([&] {
+    const int fd = connectRetry(in_port);
+    if (fd < 0)
+      return;
+    try
+    {
+      for (int i = 0; i < 60; ++i)
+        writeFrame(fd, makeFrame(i, 20000));
+    }
+    catch (const std::exception&)
+    {
+    }
+    ::close(fd);
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  const auto t0 = std::chrono::steady_clock::now();
+  const int code = node.stop();
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ::shutdown(consumer, SHUT_RDWR);
+  producer.join();
+  ::close(consumer);
+  EXPECT_EQ(code, 0) << node.stderrText();
+  EXPECT_LT(seconds, 2.0) << "SIGTERM took " << seconds << " s";
+  EXPECT_NE(node.stderrText().find("summary"), std::string::npos) << node.stderrText();
+  EXPECT_NE(node.stderrText().find("stopped while the consumer was not reading"), std::string::npos)
+      << "the sink was expected to be held up by the consumer: " << node.stderrText();
+  const auto s = node.summary();
+  EXPECT_GE(s[0], s[1] + s[2] + s[3]) << node.stderrText();
+}

@@ -118,13 +118,25 @@ bool readExact(int fd, void* data, std::size_t n, const volatile bool* stop)
   return true;
 }
 
-void writeAll(int fd, const void* data, std::size_t n)
+void writeAll(int fd, const void* data, std::size_t n, const volatile bool* stop)
 {
   const auto* p = static_cast<const std::uint8_t*>(data);
   std::size_t put = 0;
   while (put < n)
   {
-    const ssize_t w = ::send(fd, p + put, n - put, MSG_NOSIGNAL);
+    if (stop)
+    {
+      pollfd pfd{fd, POLLOUT, 0};
+      const int r = ::poll(&pfd, 1, *stop ? 0 : 100);
+      if (r == 0)
+      {
+        if (*stop)
+          throw StreamError("stopped while the consumer was not reading");
+        continue;
+      }
+    }
+    // With a stop to watch, never block inside send: a full buffer comes back to the poll above.
+    const ssize_t w = ::send(fd, p + put, n - put, MSG_NOSIGNAL | (stop ? MSG_DONTWAIT : 0));
     if (w < 0 && errno == ENOTSOCK)
     {
       const ssize_t v = ::write(fd, p + put, n - put);
@@ -139,7 +151,7 @@ void writeAll(int fd, const void* data, std::size_t n)
     }
     if (w < 0)
     {
-      if (errno == EINTR)
+      if (errno == EINTR || (stop && (errno == EAGAIN || errno == EWOULDBLOCK)))
         continue;
       throw StreamError(std::string("write error: ") + std::strerror(errno));
     }
@@ -172,14 +184,14 @@ bool readFrame(int fd, std::string& frame, const volatile bool* stop, std::uint6
   return true;
 }
 
-void writeFrame(int fd, const std::string& frame)
+void writeFrame(int fd, const std::string& frame, const volatile bool* stop)
 {
   std::uint8_t len_bytes[8];
   std::uint64_t len = frame.size();
   for (int i = 0; i < 8; ++i)
     len_bytes[i] = static_cast<std::uint8_t>(len >> (8 * i));
-  writeAll(fd, len_bytes, 8);
-  writeAll(fd, frame.data(), frame.size());
+  writeAll(fd, len_bytes, 8, stop);
+  writeAll(fd, frame.data(), frame.size(), stop);
 }
 
 int listenTcp(int port)

@@ -50,8 +50,9 @@ struct StreamError : std::runtime_error
  * throws StreamError on an end or a stop in the middle. `stop` is polled every 100 ms while
  * waiting. */
 bool readExact(int fd, void* data, std::size_t n, const volatile bool* stop = nullptr);
-/** \brief Write all n bytes (handles partial writes); throws StreamError. */
-void writeAll(int fd, const void* data, std::size_t n);
+/** \brief Write all n bytes (handles partial writes); throws StreamError. With `stop`, a peer that
+ * does not read is waited for in steps of 100 ms only until `stop` is set: then StreamError. */
+void writeAll(int fd, const void* data, std::size_t n, const volatile bool* stop = nullptr);
 
 /** \brief Read one frame; false at a clean end of stream. A length above `max_bytes` is a
  * StreamError; the frame's memory grows with the bytes that arrive, not with the length a peer
@@ -59,7 +60,7 @@ void writeAll(int fd, const void* data, std::size_t n);
 bool readFrame(int fd, std::string& frame, const volatile bool* stop = nullptr,
                std::uint64_t max_bytes = kDefaultMaxFrameBytes);
 /** \brief Write one frame (length prefix + bytes). */
-void writeFrame(int fd, const std::string& frame);
+void writeFrame(int fd, const std::string& frame, const volatile bool* stop = nullptr);
 
 /** \brief A listening TCP socket on all interfaces (SO_REUSEADDR). Throws StreamError. */
 int listenTcp(int port);
