@@ -493,9 +493,15 @@ int runTool(int argc, char** argv)
       points = header.header().points;
       step = header.header().point_step;
     }
+    catch (const io::FormatError& e)
+    {
+      // A header line too long to be one is refused here, before the file is read whole; any
+      // other problem is said by the full read below, as for any file.
+      if (std::string(e.what()).find("KiB: not a PCD header") != std::string::npos)
+        throw ToolError(kExitInput, e.what());
+    }
     catch (const std::exception&)
     {
-      // Not a readable PCD header: the full read below says what is wrong, as for any file.
     }
     const double need = static_cast<double>(points) * (kInMemoryBytesPerPoint + 3.0 * static_cast<double>(step));
     const double available = static_cast<double>(stream::availableMemory());

@@ -615,3 +615,24 @@ TEST_F(Cli, CloudsLargerThanMemoryAreRefusedBeforeReading)
     EXPECT_FALSE(fs::exists(path("out.pcd")));
   }
 }
+
+// A header line of 20 MB (an unknown keyword) and a file of terminal escape sequences: refused in
+// one short printable line, the long line never read whole, nothing written.
+TEST_F(Cli, HostileHeadersAreRefusedInOneShortLine)
+{
+  std::ofstream(path("long.pcd"), std::ios::binary) << "VERSION 0.7\nFIELDS" << std::string(20u << 20, 'x') << "\n";
+  std::ofstream(path("escape.pcd"), std::ios::binary) << "\x1b[2J\x1b]0;owned\x07\nVERSION 0.7\n";
+  for (const char* name : {"long.pcd", "escape.pcd"})
+  {
+    const RunResult r = run(path(name) + " " + path("out.pcd"));
+    EXPECT_EQ(r.code, 3) << name << ": " << r.err.substr(0, 500);
+    EXPECT_LE(r.err.size(), 600u) << name;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << name;
+    EXPECT_EQ(r.err.find('\x1b'), std::string::npos) << name;
+    EXPECT_FALSE(fs::exists(path("out.pcd")));
+  }
+#ifndef PCL_ECS_SANITIZED
+  const RunResult r = run(path("long.pcd") + " " + path("out.pcd"));
+  EXPECT_LT(r.peak_rss_kib, 45L * 1024) << "the 20 MB line was read whole: " << r.peak_rss_kib / 1024 << " MiB";
+#endif
+}

@@ -17,6 +17,9 @@ namespace io
 namespace detail
 {
 
+/// The longest header line a reader accepts: a longer one is refused without being read whole.
+constexpr std::size_t kMaxHeaderLine = 64u << 10;
+
 /// Size in bytes of a PCLPointField datatype (0 for an unknown one).
 inline std::size_t datatypeSize(std::uint8_t datatype)
 {

@@ -84,6 +84,8 @@ PcdHeader parsePcdHeader(const std::function<bool(std::string&)>& next_line, std
     ++line_no;
     if (line_no > 1000)
       fail("no DATA line in the first 1000 lines: not a PCD file");
+    if (line.size() > detail::kMaxHeaderLine)
+      fail("header line ", line_no, " is longer than ", detail::kMaxHeaderLine / 1024, " KiB: not a PCD header");
     if (!line.empty() && line.back() == '\r')
       line.pop_back();
     const auto words = splitWords(line);
@@ -229,7 +231,8 @@ void parsePcd(const std::string& bytes, pcl::PCLPointCloud2& cloud)
         std::size_t eol = bytes.find('\n', pos);
         if (eol == std::string::npos)
           eol = bytes.size();
-        line.assign(bytes, pos, eol - pos);
+        // An over-long line is cut (the parser refuses it) rather than copied whole.
+        line.assign(bytes, pos, std::min(eol - pos, detail::kMaxHeaderLine + 1));
         pos = eol + 1;
         return true;
       },

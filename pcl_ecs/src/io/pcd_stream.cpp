@@ -167,7 +167,17 @@ PcdStreamReader::PcdStreamReader(const std::string& path) : path_(path)
   {
     header_ = parsePcdHeader(
         [&](std::string& line) {
-          if (!std::getline(in_, line))
+          // At most kMaxHeaderLine + 1 characters are kept of a line (the parser refuses a longer
+          // one), and its rest is not read.
+          line.clear();
+          int c;
+          while ((c = in_.get()) != EOF && c != '\n')
+          {
+            line.push_back(static_cast<char>(c));
+            if (line.size() > detail::kMaxHeaderLine)
+              return any = true;
+          }
+          if (c == EOF && line.empty())
             return false;
           any = true;
           consumed += line.size() + 1;
