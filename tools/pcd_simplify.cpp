@@ -268,41 +268,17 @@ Options parseArgs(int argc, char** argv, bool& done)
 
 nlohmann::json bboxJson(const pcl::PCLPointCloud2& blob)
 {
-  pcl::PointCloud<pcl::PointXYZ> xyz;
-  const Eigen::Vector3d centre = io::boundingBoxCentre(blob);  // float keeps UTM precise around it
-  pcl_ecs::io::fromCloud(blob, xyz, centre);
-  double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
-                  std::numeric_limits<double>::infinity()};
-  double hi[3] = {-lo[0], -lo[1], -lo[2]};
-  std::size_t finite = 0;
-  for (const auto& p : xyz)
-  {
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-      continue;
-    ++finite;
-    const double v[3] = {p.x + centre.x(), p.y + centre.y(), p.z + centre.z()};
-    for (int k = 0; k < 3; ++k)
-    {
-      lo[k] = std::min(lo[k], v[k]);
-      hi[k] = std::max(hi[k], v[k]);
-    }
-  }
-  if (finite == 0)
+  Eigen::Vector3d lo, hi;
+  if (io::boundingBox(blob, lo, hi) == 0)
     return nullptr;
-  return {{"min", {lo[0], lo[1], lo[2]}}, {"max", {hi[0], hi[1], hi[2]}}};
+  return {{"min", {lo.x(), lo.y(), lo.z()}}, {"max", {hi.x(), hi.y(), hi.z()}}};
 }
 
 /// Memory of an in-memory run per input point besides its records (neighbourhoods, per-point
 /// values, the cover; measured: about 180 B at K = 16), with a margin.
 constexpr double kInMemoryBytesPerPoint = 250.0;
 
-struct RunOutput
-{
-  pcl::PCLPointCloud2 output, features;
-  Result result;
-};
-
-nlohmann::json statsJson(const Options& o, const RunOutput& run, const pcl::PCLPointCloud2& input)
+nlohmann::json statsJson(const Options& o, const CloudRun& run, const pcl::PCLPointCloud2& input)
 {
   const Summary& s = run.result.summary;
   const StageTimings& t = s.timings;
@@ -535,14 +511,13 @@ int runTool(int argc, char** argv)
   run_options.features = !o.features.empty();
   run_options.labels = o.labels;
   run_options.progress = progress.callback();
-  CloudRun cloud_run = simplifyCloud(input, o.params, run_options);
+  const CloudRun r = simplifyCloud(input, o.params, run_options);
   progress.finish();
-  if (!cloud_run.result.error.empty())
+  if (!r.result.error.empty())
   {
-    const bool internal = cloud_run.result.error.rfind("internal error", 0) == 0;
-    throw ToolError(internal ? kExitInternal : kExitInput, o.input + ": " + cloud_run.result.error);
+    const bool internal = r.result.error.rfind("internal error", 0) == 0;
+    throw ToolError(internal ? kExitInternal : kExitInput, o.input + ": " + r.result.error);
   }
-  RunOutput r{std::move(cloud_run.output), std::move(cloud_run.features), std::move(cloud_run.result)};
 
   // The surface of the simplified cloud, when asked for: nothing is written if it fails.
   std::optional<MeshRun> mesh;

@@ -17,12 +17,6 @@ namespace tools
 
 namespace
 {
-/// A coordinate in the field's own type (float, double or, rarely, an integer type).
-void storeCoordinate(const pcl::PCLPointField& f, std::uint8_t* rec, double v)
-{
-  io::storeFieldValue(v, f.datatype, rec + f.offset);
-}
-
 template <typename PointT>
 Result runFilter(const pcl::PCLPointCloud2& input, const Eigen::Vector3d& shift, const Parameters& params,
                  const ProgressCallback& progress)
@@ -128,7 +122,7 @@ CloudRun simplifyCloud(const pcl::PCLPointCloud2& input, const Parameters& given
     const Eigen::Vector3d& v = r.balls[static_cast<std::size_t>(r.ball_of_output[i])].representative;
     std::uint8_t* rec = out.data.data() + i * out.point_step;
     for (int a = 0; a < 3; ++a)
-      storeCoordinate(*axis[a], rec, v[a]);
+      io::storeFieldValue(v[a], axis[a]->datatype, rec + axis[a]->offset);  // in the input's own type
   }
   if (options.features)
   {

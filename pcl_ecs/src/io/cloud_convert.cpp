@@ -97,13 +97,14 @@ pcl::PCLPointCloud2 packedCloud(const pcl::PCLPointCloud2& cloud)
   return out;
 }
 
-Eigen::Vector3d boundingBoxCentre(const pcl::PCLPointCloud2& cloud)
+std::size_t boundingBox(const pcl::PCLPointCloud2& cloud, Eigen::Vector3d& lo, Eigen::Vector3d& hi)
 {
-  int idx[3] = {fieldIndex(cloud.fields, "x"), fieldIndex(cloud.fields, "y"), fieldIndex(cloud.fields, "z")};
+  const int idx[3] = {fieldIndex(cloud.fields, "x"), fieldIndex(cloud.fields, "y"), fieldIndex(cloud.fields, "z")};
   if (idx[0] < 0 || idx[1] < 0 || idx[2] < 0)
-    return Eigen::Vector3d::Zero();
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-  Eigen::Vector3d hi = -lo;
+    return 0;
+  Eigen::Vector3d l = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d h = -l;
+  std::size_t finite = 0;
   const std::size_t n = static_cast<std::size_t>(cloud.width) * cloud.height;
   for (std::size_t i = 0; i < n; ++i)
   {
@@ -116,12 +117,22 @@ Eigen::Vector3d boundingBoxCentre(const pcl::PCLPointCloud2& cloud)
     }
     if (!p.allFinite())
       continue;
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
+    ++finite;
+    l = l.cwiseMin(p);
+    h = h.cwiseMax(p);
   }
-  if (!(lo.allFinite() && hi.allFinite()))
-    return Eigen::Vector3d::Zero();
-  return 0.5 * (lo + hi);
+  if (finite > 0)
+  {
+    lo = l;
+    hi = h;
+  }
+  return finite;
+}
+
+Eigen::Vector3d boundingBoxCentre(const pcl::PCLPointCloud2& cloud)
+{
+  Eigen::Vector3d lo, hi;
+  return boundingBox(cloud, lo, hi) > 0 ? Eigen::Vector3d(0.5 * (lo + hi)) : Eigen::Vector3d::Zero();
 }
 
 void convertRecords(const pcl::PCLPointCloud2& cloud, const std::vector<pcl::PCLPointField>& dst_fields,

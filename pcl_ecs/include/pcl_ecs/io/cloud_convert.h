@@ -37,9 +37,14 @@ void copyRecords(const std::uint8_t* src, std::uint32_t src_step, const std::vec
                  const std::vector<std::int64_t>& from, std::uint8_t* dst, std::uint32_t dst_step,
                  const std::vector<pcl::PCLPointField>& dst_fields);
 
-/** \brief The centre of the bounding box of the finite x, y, z of `cloud` (zero when it has none
- * or lacks a coordinate field): subtracted before coordinates become float, it keeps them as
- * precise as the cloud's extent allows, whatever their magnitude (UTM). */
+/** \brief The bounding box of the finite x, y, z of `cloud`, in double whatever their type;
+ * returns the number of finite points (0 when none or a coordinate field is missing: `lo`, `hi`
+ * are then left as they were). */
+std::size_t boundingBox(const pcl::PCLPointCloud2& cloud, Eigen::Vector3d& lo, Eigen::Vector3d& hi);
+
+/** \brief The centre of boundingBox() (zero when there is none): subtracted before coordinates
+ * become float, it keeps them as precise as the cloud's extent allows, whatever their magnitude
+ * (UTM). */
 Eigen::Vector3d boundingBoxCentre(const pcl::PCLPointCloud2& cloud);
 
 /** \brief Write the values of `cloud`'s fields into `n` records of another layout (`dst_fields`,
