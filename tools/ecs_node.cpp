@@ -32,6 +32,7 @@
 #include <thread>
 
 #include <pcl/console/print.h>
+#include <malloc.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
@@ -64,6 +65,13 @@ the frames in flight, flush the sink, print a summary and exit 0.
   --once                   directory source: process the files present, then exit
   --max-frame-bytes SIZE   largest frame, and largest cloud a frame may decode to (points x
                            record size), e.g. 64M (default 256M); larger ones are bad frames
+  --max-bytes-in-flight SIZE
+                           bytes all input frames hold together while read, queued or processed
+                           (default 1G, >= --max-frame-bytes); a reader that would exceed it waits
+                           and does not read its peer until frames are done
+  --read-timeout S         TCP source: a producer that sends nothing for S seconds in the middle
+                           of a frame is dropped, the frame counted as dropped (default 30; 0 =
+                           wait for ever). Between frames a producer may be silent for any time
   --quiet                  no stats lines, only errors and the summary
 
 Frames on TCP and pipes: an 8-byte little-endian length, then that many bytes holding a complete
@@ -84,6 +92,8 @@ struct Options
   int poll_ms = 100;
   bool once = false, quiet = false;
   std::uint64_t max_frame_bytes = node::kDefaultMaxFrameBytes;
+  std::uint64_t max_bytes_in_flight = 1ull << 30;
+  double read_timeout = node::kDefaultReadTimeoutMs / 1000.0;
   Parameters params;
 };
 
@@ -100,7 +110,7 @@ void applyYaml(const std::string& path, Options& o)
   }
   static const std::set<std::string> known = {"source", "sink", "queue", "policy", "workers",
                                               "stats_interval", "poll_ms", "once", "quiet", "filter",
-                                              "max_frame_bytes"};
+                                              "max_frame_bytes", "max_bytes_in_flight", "read_timeout"};
   for (const auto& kv : y)
     if (!known.count(kv.first.as<std::string>()))
       throw tools::UsageError(path + ": unknown key '" + kv.first.as<std::string>() + "'");
@@ -111,6 +121,10 @@ void applyYaml(const std::string& path, Options& o)
     if (y["queue"]) o.queue = y["queue"].as<std::size_t>();
     if (y["max_frame_bytes"] && !stream::parseByteSize(y["max_frame_bytes"].as<std::string>(), o.max_frame_bytes))
       throw tools::UsageError(path + ": max_frame_bytes must be a size like 64M");
+    if (y["max_bytes_in_flight"] &&
+        !stream::parseByteSize(y["max_bytes_in_flight"].as<std::string>(), o.max_bytes_in_flight))
+      throw tools::UsageError(path + ": max_bytes_in_flight must be a size like 1G");
+    if (y["read_timeout"]) o.read_timeout = y["read_timeout"].as<double>();
     if (y["policy"])
     {
       const std::string p = y["policy"].as<std::string>();
@@ -180,6 +194,14 @@ Options parseArgs(int argc, char** argv, bool& done)
       if (!stream::parseByteSize(v, o.max_frame_bytes))
         throw tools::UsageError("--max-frame-bytes: '" + v + "' is not a size (like 64M)");
     }
+    else if (a == "--max-bytes-in-flight")
+    {
+      const std::string v = value();
+      if (!stream::parseByteSize(v, o.max_bytes_in_flight))
+        throw tools::UsageError("--max-bytes-in-flight: '" + v + "' is not a size (like 1G)");
+    }
+    else if (a == "--read-timeout")
+      o.read_timeout = tools::parseDoubleFlag(a, value());
     else if (a == "--policy")
     {
       const std::string p = value();
@@ -206,6 +228,12 @@ Options parseArgs(int argc, char** argv, bool& done)
     throw tools::UsageError("workers must be in [1, 256]");
   if (!(o.stats_interval >= 0.0))
     throw tools::UsageError("stats interval must be >= 0");
+  if (!(o.read_timeout >= 0.0 && o.read_timeout <= 86400.0))
+    throw tools::UsageError("read timeout must be in [0, 86400] seconds");
+  if (o.max_frame_bytes > o.max_bytes_in_flight)
+    throw tools::UsageError("--max-frame-bytes (" + std::to_string(o.max_frame_bytes) +
+                            ") exceeds --max-bytes-in-flight (" + std::to_string(o.max_bytes_in_flight) +
+                            "): a frame of the largest size could never be read");
   if (o.poll_ms < 1 || o.poll_ms > 60000)
     throw tools::UsageError("poll-ms must be in [1, 60000]");
   const std::string why = validate(o.params);
@@ -228,7 +256,9 @@ struct Frame
   std::uint64_t seq = 0;
   std::string name;  // file name for a directory source, else empty
   std::string bytes;
+  ByteBudget::Reservation held;  // the frame's share of --max-bytes-in-flight
   Clock::time_point arrived;
+  std::string refused;  // set when the source already knows the frame is bad (never read)
 };
 
 struct Outcome
@@ -379,6 +409,8 @@ private:
 /// Simplify one frame; throws with the reason when it cannot be parsed or processed.
 Outcome process(const Frame& f, const Parameters& params, std::uint64_t max_bytes)
 {
+  if (!f.refused.empty())
+    throw std::runtime_error(f.refused);
   // The header says what the frame decodes to: refused before a compressed frame can expand.
   {
     std::istringstream lines(f.bytes.substr(0, std::min<std::size_t>(f.bytes.size(), 64u << 10)));
@@ -407,40 +439,47 @@ Outcome process(const Frame& f, const Parameters& params, std::uint64_t max_byte
 constexpr std::size_t kMaxConnections = 256;
 
 /// Reads frames from the source until it ends or the node is stopped; returns the count.
-std::uint64_t runSource(const Options& o, FrameQueue& queue, Stats& stats)
+std::uint64_t runSource(const Options& o, FrameQueue& queue, Stats& stats, ByteBudget& budget)
 {
   const Endpoint e = parseEndpoint(o.source, true);
   std::uint64_t seq = 0;
   std::mutex accept_mutex;  // connections read in parallel; frames are numbered as they complete
-  auto accept_frame = [&](std::string bytes, const std::string& name) {
+  auto accept_frame = [&](std::string bytes, ByteBudget::Reservation held, const std::string& name,
+                          const std::string& refused = std::string()) {
     std::lock_guard<std::mutex> lock(accept_mutex);
     Frame f;
     f.seq = seq++;
     f.name = name;
     f.bytes = std::move(bytes);
+    f.held = std::move(held);
+    f.refused = refused;
     f.arrived = Clock::now();
     ++stats.in;
     queue.push(std::move(f));
   };
-  auto read_stream = [&](int fd) {
+  auto read_stream = [&](int fd, int timeout_ms) {
     std::string bytes;
+    ByteBudget::Reservation held;
+    const FrameLimits limits{o.max_frame_bytes, timeout_ms, &budget};
     try
     {
-      while (!g_stop && readFrame(fd, bytes, &g_stop, o.max_frame_bytes))
-        accept_frame(std::move(bytes), "");
+      while (!g_stop && readFrame(fd, bytes, &g_stop, limits, &held))
+        accept_frame(std::move(bytes), std::move(held), "");
     }
     catch (const StreamError& err)
     {
-      if (g_stop)
+      // A frame cut short (by the stop, a timeout, or a peer that went away) came in and is
+      // dropped; a refused length never started one.
+      if (g_stop || held.bytes() > 0)
       {
-        ++stats.in;  // a frame cut short by the stop: it came in, and is dropped
+        ++stats.in;
         ++stats.dropped;
       }
       std::fprintf(stderr, "ecs_node: source: %s; dropping the connection\n", tools::printable(err.what()).c_str());
     }
   };
   if (e.kind == Endpoint::Kind::Stdio)
-    read_stream(STDIN_FILENO);
+    read_stream(STDIN_FILENO, -1);
   else if (e.kind == Endpoint::Kind::Tcp)
   {
     // Every connection has a reader of its own: an idle or slow producer holds up no other.
@@ -474,8 +513,9 @@ std::uint64_t runSource(const Options& o, FrameQueue& queue, Stats& stats)
         continue;
       }
       auto done = std::make_shared<std::atomic<bool>>(false);
-      readers.push_back({std::thread([&read_stream, fd, done] {
-                           read_stream(fd);
+      const int timeout_ms = o.read_timeout > 0 ? static_cast<int>(o.read_timeout * 1000.0) : -1;
+      readers.push_back({std::thread([&read_stream, fd, done, timeout_ms] {
+                           read_stream(fd, timeout_ms);
                            ::close(fd);
                            done->store(true);
                          }),
@@ -525,11 +565,25 @@ std::uint64_t runSource(const Options& o, FrameQueue& queue, Stats& stats)
           waiting = true;
           break;  // keep name order: nothing after an unfinished file
         }
-        std::ifstream in(p, std::ios::binary);
-        std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
         seen.insert(name);
         pending.erase(name);
-        accept_frame(std::move(bytes), name);
+        if (size > o.max_frame_bytes)
+        {
+          accept_frame(std::string(), ByteBudget::Reservation(), name,
+                       "its " + std::to_string(size) + " bytes exceed --max-frame-bytes " +
+                           std::to_string(o.max_frame_bytes));  // never read; counted as bad
+          continue;
+        }
+        ByteBudget::Reservation held = budget.acquire(size, &g_stop);
+        if (held.bytes() != size && size > 0)
+          break;  // stopped while waiting for room
+        std::ifstream in(p, std::ios::binary);
+        std::string bytes;
+        bytes.reserve(size);
+        bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+        if (bytes.size() > size)  // grew after its size was taken: read only what was reserved
+          bytes.resize(size);
+        accept_frame(std::move(bytes), std::move(held), name);
       }
       if (o.once && !waiting)
       {
@@ -634,6 +688,7 @@ int runNode(int argc, char** argv)
   std::signal(SIGPIPE, SIG_IGN);
 
   Stats stats;
+  ByteBudget budget(o.max_bytes_in_flight);
   Reorder reorder(o.queue);
   FrameQueue queue(o.queue, o.drop_oldest, stats, reorder);
   std::vector<std::thread> workers;
@@ -645,8 +700,10 @@ int runNode(int argc, char** argv)
         try
         {
           Outcome out = process(f, o.params, o.max_frame_bytes);
+          const std::uint64_t seq = f.seq;
+          f = Frame{};  // the input's bytes and its share of the budget go back now
           stats.points_in += out.points_in;
-          reorder.put(f.seq, std::move(out));
+          reorder.put(seq, std::move(out));
         }
         catch (const std::exception& err)
         {
@@ -656,6 +713,7 @@ int runNode(int argc, char** argv)
                        tools::printable(err.what()).c_str());
           reorder.put(f.seq, std::nullopt);
         }
+        f = Frame{};
       }
     });
   std::thread sink([&] { runSink(o, reorder, stats); });
@@ -680,7 +738,7 @@ int runNode(int argc, char** argv)
   std::uint64_t total = 0;
   try
   {
-    total = runSource(o, queue, stats);
+    total = runSource(o, queue, stats, budget);
   }
   catch (const std::exception& err)
   {
@@ -703,6 +761,12 @@ int runNode(int argc, char** argv)
 
 int main(int argc, char** argv)
 {
+#ifdef __GLIBC__
+  // Frames are large and come and go on many threads: served by mmap and given back when freed,
+  // so --max-bytes-in-flight bounds the resident set (glibc would otherwise raise the threshold
+  // after the first free and keep freed frames in each thread's arena).
+  ::mallopt(M_MMAP_THRESHOLD, 1 << 20);
+#endif
   try
   {
     return runNode(argc, argv);

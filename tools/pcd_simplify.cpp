@@ -342,6 +342,12 @@ nlohmann::json statsJson(const Options& o, const CloudRun& run, const pcl::PCLPo
   return j;
 }
 
+/// The summary line's note on coincident points ("" when there were none).
+std::string mergedNote(std::uint64_t merged)
+{
+  return merged > 0 ? " (" + std::to_string(merged) + " coincident points merged)" : std::string();
+}
+
 int runStream(const Options& o)
 {
   stream::StreamOptions so;
@@ -393,6 +399,7 @@ int runStream(const Options& o)
                        {"k_neighbors", o.params.k_neighbors},         {"seed", o.params.seed},
                        {"max_gap_factor", o.params.max_gap_factor},   {"memory_limit", o.memory_limit}};
     j["counts"] = {{"input_points", s.input_points}, {"finite_points", s.finite_points},
+                   {"merged_points", s.merged_points},
                    {"feature_points", s.feature_points}, {"balls", s.balls},
                    {"gap_points", s.gap_points},         {"output_points", s.output_points}};
     j["geometry"] = {{"bbox_diagonal", s.bbox_diagonal},         {"feature_threshold", s.feature_threshold},
@@ -420,12 +427,12 @@ int runStream(const Options& o)
     out.commit();
   }
   if (!o.quiet)
-    std::printf("%s: %llu -> %llu points (%.2f%%): %llu features, %llu balls; T_err %.3g, max error %.3g L; "
+    std::printf("%s: %llu -> %llu points (%.2f%%)%s: %llu features, %llu balls; T_err %.3g, max error %.3g L; "
                 "%zu tiles; %.2f s (%.2f M points/s)\n",
                 o.output.c_str(), static_cast<unsigned long long>(s.finite_points),
                 static_cast<unsigned long long>(s.output_points),
                 100.0 * static_cast<double>(s.output_points) / static_cast<double>(std::max<std::uint64_t>(1, s.finite_points)),
-                static_cast<unsigned long long>(s.feature_points), static_cast<unsigned long long>(s.balls),
+                mergedNote(s.merged_points).c_str(), static_cast<unsigned long long>(s.feature_points), static_cast<unsigned long long>(s.balls),
                 o.params.error_threshold, s.max_error, s.tiles.size(), s.seconds,
                 static_cast<double>(s.input_points) / std::max(1e-9, s.seconds) / 1e6);
   return kExitOk;
@@ -578,13 +585,12 @@ int runTool(int argc, char** argv)
   if (!o.quiet)
   {
     const Summary& s = r.result.summary;
-    const std::string merged =
-        s.merged_points > 0 ? " (" + std::to_string(s.merged_points) + " coincident points merged)" : std::string();
     std::printf("%s: %zu -> %zu points (%.2f%%)%s: %zu features, %zu balls; T_err %.3g, max error "
                 "%.3g L; %.2f s\n",
                 o.output.c_str(), s.finite_points, s.output_points,
                 100.0 * static_cast<double>(s.output_points) / static_cast<double>(std::max<std::size_t>(1, s.finite_points)),
-                merged.c_str(), s.feature_points, s.balls, s.error_threshold, s.max_error, s.timings.total);
+                mergedNote(s.merged_points).c_str(), s.feature_points, s.balls, s.error_threshold, s.max_error,
+                s.timings.total);
     if (mesh)
       std::printf("%s: %s\n", o.mesh.c_str(), meshSummaryLine(*mesh).c_str());
   }

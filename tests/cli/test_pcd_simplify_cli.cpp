@@ -509,7 +509,7 @@ TEST_F(Cli, TypedFieldsAreReadInMemory)
 }
 
 // A real scan in which every point is stored twice: simplified as the scan without the copies, in
-// T_err mode and with a target ratio (of the distinct points), and the summary says so.
+// T_err mode, with a target ratio (of the distinct points) and streamed, and the summary says so.
 TEST_F(Cli, RoomScanWithEveryPointTwiceIsSimplifiedAsTheScanOnce)
 {
   const std::string in = kShared + "/room_scan2.pcd";
@@ -533,7 +533,7 @@ TEST_F(Cli, RoomScanWithEveryPointTwiceIsSimplifiedAsTheScanOnce)
   once.row_step = once.width * once.point_step;
   ASSERT_LT(once.width * 10u, all.width * 6u) << "the scan is expected to hold most points twice";
   pcl_ecs::io::writeCloud(path("once.pcd"), pcl_ecs::io::Format::Pcd, once, pcl_ecs::io::Encoding::Binary);
-  for (const std::string mode : {"", " --target-ratio 0.1"})
+  for (const std::string mode : {"", " --target-ratio 0.1", " --stream"})
   {
     const RunResult r2 = run(in + " " + path("twice_out.pcd") + mode);
     const RunResult r1 = run(path("once.pcd") + " " + path("once_out.pcd") + mode);
@@ -635,4 +635,31 @@ TEST_F(Cli, HostileHeadersAreRefusedInOneShortLine)
   const RunResult r = run(path("long.pcd") + " " + path("out.pcd"));
   EXPECT_LT(r.peak_rss_kib, 45L * 1024) << "the 20 MB line was read whole: " << r.peak_rss_kib / 1024 << " MiB";
 #endif
+}
+
+// Input quoted in a message is at most 80 characters: an unknown 10 KB keyword, a 5 KB field name
+// with a bad ascii value, a 10 KB token in the data, in memory and with --stream.
+TEST_F(Cli, MessagesQuoteAtMostEightyCharactersOfInput)
+{
+  const std::string k(10000, 'K'), name(5000, 'N'), token(10000, 'T');
+  std::ofstream(path("keyword.pcd")) << "VERSION 0.7\n" << k << " 1\n";
+  std::ofstream(path("field.pcd")) << "VERSION 0.7\nFIELDS x y z " << name << "\nSIZE 4 4 4 4\nTYPE F F F F\n"
+                                   << "COUNT 1 1 1 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3 abc\n";
+  std::ofstream(path("token.pcd")) << "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                                   << "WIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 " << token << "\n";
+  auto longest_run = [](const std::string& text, char c) {
+    std::size_t best = 0, run = 0;
+    for (char t : text)
+      best = std::max(best, run = t == c ? run + 1 : 0);
+    return best;
+  };
+  for (const char* mode : {"", " --stream"})
+    for (const auto& [file, c] : {std::pair<const char*, char>{"keyword.pcd", 'K'}, {"field.pcd", 'N'}, {"token.pcd", 'T'}})
+    {
+      const RunResult r = run(path(file) + " " + path("out.pcd") + mode);
+      EXPECT_EQ(r.code, 3) << file << mode << ": " << r.err.substr(0, 300);
+      EXPECT_GE(longest_run(r.err, c), 10u) << file << mode << ": the input is not quoted at all: " << r.err;
+      EXPECT_LE(longest_run(r.err, c), 80u) << file << mode << ": " << r.err.substr(0, 300);
+      EXPECT_FALSE(fs::exists(path("out.pcd")));
+    }
 }

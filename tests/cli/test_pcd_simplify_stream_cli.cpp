@@ -3,9 +3,12 @@
 // limit, progress on stderr, and refusals with their exit codes and nothing left behind.
 #include "cli_fixture.h"
 
+#include <pcl_ecs/io/cloud_convert.h>
+#include <pcl_ecs/io/cloud_io.h>
 #include <pcl_ecs/io/pcd_stream.h>
 
 #include <cmath>
+#include <cstring>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
@@ -15,6 +18,8 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <pcl/conversions.h>
+#include <pcl/point_types.h>
 
 namespace fs = std::filesystem;
 using pcl_ecs_test::RunResult;
@@ -178,6 +183,9 @@ TEST_F(StreamCli, RefusalsLeaveNothingBehind)
       {scan + " " + path("o.pcd") + " --stream --memory-limit lots", 2, "not a size"},
       {scan + " " + path("o.pcd") + " --stream --memory-limit 1M", 2, "at least 64M"},
       {scan + " " + path("o.pcd") + " --memory-limit 1G", 2, "need --stream"},
+      // A sparse room whose halo alone fills a tile of 20,000 points: refused at the plan (it
+      // split into 56,188 one-point tiles before), with the size that works.
+      {kShared + "/room_scan2.pcd " + path("o.pcd") + " --stream --tile-points 20000", 2, "use at least --tile-points"},
       {scan + " " + path("o.ply") + " --stream", 2, ".pcd"},
       {path("missing.pcd") + " " + path("o.pcd") + " --stream", 3, "no such file"},
       {scan + " " + path("nodir/o.pcd") + " --stream", 4, "nodir"},
@@ -250,4 +258,104 @@ TEST_F(StreamCli, SmallMemoryLimitHoldsOrIsRefusedAtOnce)
                              std::to_string(needed_mib) + "M");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_LT(r.peak_rss_kib, needed_mib * 1024) << "peak RSS " << r.peak_rss_kib / 1024 << " MiB";
+}
+
+// Coincident points in the streamed path, across tiles: 30,000 more points at the place of one
+// (a sensor writing the same return again and again) and 20,000 points stored twice are merged
+// before neighbourhoods, as in memory: the count is exact, the spot is one output point, and the
+// rest is simplified as the scan alone (quadratic work in the spot's neighbour searches before:
+// minutes, not a second).
+TEST_F(StreamCli, CoincidentPointsAreMergedAcrossTiles)
+{
+  const std::string scan = makeScan("scan.pcd", 60000);
+  pcl::PCLPointCloud2 c;
+  pcl_ecs::io::readCloud(scan, c);
+  const std::size_t n = static_cast<std::size_t>(c.width) * c.height, step = c.point_step;
+  std::vector<std::uint8_t> data = c.data;
+  for (int i = 0; i < 30000; ++i)
+    data.insert(data.end(), c.data.begin(), c.data.begin() + static_cast<std::ptrdiff_t>(step));
+  data.insert(data.end(), c.data.begin(), c.data.begin() + static_cast<std::ptrdiff_t>(20000 * step));
+  pcl::PCLPointCloud2 spiked = c;
+  spiked.data = data;
+  spiked.width = static_cast<std::uint32_t>(data.size() / step);
+  spiked.height = 1;
+  spiked.row_step = spiked.width * static_cast<std::uint32_t>(step);
+  pcl_ecs::io::writeCloud(path("spiked.pcd"), pcl_ecs::io::Format::Pcd, spiked, pcl_ecs::io::Encoding::Binary);
+  ASSERT_EQ(spiked.width, n + 50000);
+
+  const RunResult a = runTool(kSimplify, scan + " " + path("a.pcd") + " --stream --tile-points 60000 --stats " +
+                                             path("a.json"));
+  const RunResult b = runTool(kSimplify, path("spiked.pcd") + " " + path("b.pcd") +
+                                             " --stream --tile-points 60000 --stats " + path("b.json"));
+  ASSERT_EQ(a.code, 0) << a.err;
+  ASSERT_EQ(b.code, 0) << b.err;
+  const auto ja = nlohmann::json::parse(slurp(path("a.json"))), jb = nlohmann::json::parse(slurp(path("b.json")));
+  EXPECT_GE(jb["tiles"]["list"].size(), 2u) << "the test needs several tiles";
+  EXPECT_EQ(jb["counts"]["merged_points"].get<std::size_t>(), 50000u + ja["counts"]["merged_points"].get<std::size_t>());
+  EXPECT_NE(b.out.find("coincident points merged"), std::string::npos) << b.out;
+  pcl::PCLPointCloud2 out;
+  pcl_ecs::io::readCloud(path("b.pcd"), out);
+  const std::uint32_t x_in = c.fields[static_cast<std::size_t>(pcl_ecs::io::fieldIndex(c.fields, "x"))].offset;
+  const std::uint32_t x_out = out.fields[static_cast<std::size_t>(pcl_ecs::io::fieldIndex(out.fields, "x"))].offset;
+  std::size_t at_spot = 0;
+  for (std::size_t i = 0; i < static_cast<std::size_t>(out.width) * out.height; ++i)
+    at_spot += std::memcmp(out.data.data() + i * out.point_step + x_out, c.data.data() + x_in, 12) == 0 ? 1 : 0;
+  EXPECT_LE(at_spot, 1u);
+  const double na = ja["counts"]["output_points"].get<double>(), nb = jb["counts"]["output_points"].get<double>();
+  EXPECT_NEAR(nb, na, 0.03 * na) << "the scan with the spot and the copies is simplified as the scan";
+}
+
+// The streamed path is scale-free as the filter is: the bunny in units 1e-24 to 1e30 of its own
+// gives the unit-scale run, point for point (to float rounding) (it hung at 1e-24 and kept 11% at
+// 1e30 before, when the tiles computed in the input's units).
+TEST_F(StreamCli, ExtremeScalesGiveTheUnitScaleResult)
+{
+  pcl::PCLPointCloud2 blob;
+  pcl_ecs::io::readCloud(kShared + "/bunny.pcd", blob);
+  pcl::PointCloud<pcl::PointXYZ> bunny;
+  pcl_ecs::io::fromCloud(blob, bunny);
+  auto write_scaled = [&](double k, const std::string& name) {
+    pcl::PointCloud<pcl::PointXYZ> c;
+    for (const auto& p : bunny)
+      c.push_back(pcl::PointXYZ(static_cast<float>(p.x * k), static_cast<float>(p.y * k), static_cast<float>(p.z * k)));
+    pcl::PCLPointCloud2 out;
+    pcl::toPCLPointCloud2(c, out);
+    pcl_ecs::io::writeCloud(path(name), pcl_ecs::io::Format::Pcd, out, pcl_ecs::io::Encoding::Binary);
+  };
+  auto simplified = [&](const std::string& name) {
+    const RunResult r = runTool(kSimplify, path(name) + " " + path("out_" + name) + " --stream --quiet");
+    EXPECT_EQ(r.code, 0) << name << ": " << r.err;
+    pcl::PCLPointCloud2 o;
+    pcl::PointCloud<pcl::PointXYZ> c;
+    if (r.code == 0)
+    {
+      pcl_ecs::io::readCloud(path("out_" + name), o);
+      pcl_ecs::io::fromCloud(o, c);
+    }
+    return c;
+  };
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+  for (const auto& p : bunny)
+  {
+    lo = lo.cwiseMin(p.getVector3fMap().cast<double>());
+    hi = hi.cwiseMax(p.getVector3fMap().cast<double>());
+  }
+  const double diagonal = (hi - lo).norm();
+  write_scaled(1.0, "unit.pcd");
+  const auto unit = simplified("unit.pcd");
+  ASSERT_GT(unit.size(), 1000u);
+  ASSERT_LT(unit.size(), bunny.size() / 5);
+  for (const double k : {1e-24, 1e-8, 1e8, 1e30})
+  {
+    SCOPED_TRACE("scale " + std::to_string(k));
+    const std::string name = "scaled_" + std::to_string(k) + ".pcd";
+    write_scaled(k, name);
+    const auto got = simplified(name);
+    ASSERT_EQ(got.size(), unit.size());
+    double worst = 0.0;
+    for (std::size_t i = 0; i < got.size(); ++i)
+      worst = std::max(worst, (got[i].getVector3fMap().cast<double>() / k - unit[i].getVector3fMap().cast<double>()).norm());
+    // Scaled inputs are rounded to float, and so is every step after: a few float ulps of L.
+    EXPECT_LT(worst, 5e-5 * diagonal) << "largest difference to the unit-scale run, in the bunny's units";
+  }
 }

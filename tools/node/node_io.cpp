@@ -12,6 +12,8 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdio>
+#include <chrono>
 #include <vector>
 #include <cstring>
 #include <sstream>
@@ -79,22 +81,59 @@ std::string serializeBinaryPcd(const pcl::PCLPointCloud2& c)
   return out.str();
 }
 
-bool readExact(int fd, void* data, std::size_t n, const volatile bool* stop)
+ByteBudget::Reservation ByteBudget::acquire(std::uint64_t bytes, const volatile bool* stop)
+{
+  if (bytes > limit_)
+    return {};
+  std::unique_lock<std::mutex> lock(m_);
+  // A stop comes from a signal handler, which notifies no one: look every 100 ms.
+  while (used_ + bytes > limit_)
+  {
+    if (stop && *stop)
+      return {};
+    cv_.wait_for(lock, std::chrono::milliseconds(100));
+  }
+  used_ += bytes;
+  return Reservation(this, bytes);
+}
+
+std::uint64_t ByteBudget::inUse()
+{
+  std::lock_guard<std::mutex> lock(m_);
+  return used_;
+}
+
+void ByteBudget::release(std::uint64_t bytes)
+{
+  std::lock_guard<std::mutex> lock(m_);
+  used_ -= bytes;
+  cv_.notify_all();
+}
+
+bool readExact(int fd, void* data, std::size_t n, const volatile bool* stop, int timeout_ms)
 {
   auto* p = static_cast<std::uint8_t*>(data);
   std::size_t got = 0;
+  using Clock = std::chrono::steady_clock;
+  auto last_byte = Clock::now();
   while (got < n)
   {
-    if (stop)
+    if (stop || timeout_ms >= 0)
     {
       pollfd pfd{fd, POLLIN, 0};
       const int r = ::poll(&pfd, 1, 100);
       if (r == 0)
       {
-        if (*stop && got == 0)
+        if (stop && *stop && got == 0)
           return false;
-        if (*stop)
+        if (stop && *stop)
           throw StreamError("stopped in the middle of a frame");
+        if (timeout_ms >= 0 && Clock::now() - last_byte >= std::chrono::milliseconds(timeout_ms))
+        {
+          char why[96];
+          std::snprintf(why, sizeof(why), "no data for %g s in the middle of a frame (--read-timeout)", timeout_ms / 1000.0);
+          throw StreamError(why);
+        }
         continue;
       }
       if (r < 0 && errno == EINTR)
@@ -114,6 +153,7 @@ bool readExact(int fd, void* data, std::size_t n, const volatile bool* stop)
       throw StreamError(std::string("read error: ") + std::strerror(errno));
     }
     got += static_cast<std::size_t>(r);
+    last_byte = Clock::now();
   }
   return true;
 }
@@ -159,26 +199,41 @@ void writeAll(int fd, const void* data, std::size_t n, const volatile bool* stop
   }
 }
 
-bool readFrame(int fd, std::string& frame, const volatile bool* stop, std::uint64_t max_bytes)
+bool readFrame(int fd, std::string& frame, const volatile bool* stop, const FrameLimits& limits,
+               ByteBudget::Reservation* held)
 {
   std::uint8_t len_bytes[8];
-  if (!readExact(fd, len_bytes, 8, stop))
+  // Between frames a producer may stay silent as long as it likes; the timeout starts with the
+  // first byte of a frame.
+  if (!readExact(fd, len_bytes, 1, stop))
     return false;
+  if (!readExact(fd, len_bytes + 1, 7, stop, limits.timeout_ms))
+    throw StreamError(stop && *stop ? "stopped in the middle of a frame" : "the stream ended in the middle of a frame");
   std::uint64_t len = 0;
   for (int i = 7; i >= 0; --i)
     len = (len << 8) | len_bytes[i];
-  if (len > max_bytes)
-    throw StreamError("frame length " + std::to_string(len) + " exceeds --max-frame-bytes " + std::to_string(max_bytes));
-  // Grown chunk by chunk as the bytes arrive: a peer that announces a large frame and sends
-  // nothing holds no memory for it.
+  if (len > limits.max_bytes)
+    throw StreamError("frame length " + std::to_string(len) + " exceeds --max-frame-bytes " +
+                      std::to_string(limits.max_bytes));
+  if (limits.budget && held)
+  {
+    *held = limits.budget->acquire(len, stop);
+    if (held->bytes() != len && len > 0)
+      throw StreamError("stopped while waiting for room for a frame");
+  }
+  // Filled chunk by chunk as the bytes arrive: a peer that announces a large frame and sends
+  // nothing holds no memory for it. With a budget the length is reserved there, so the buffer is
+  // reserved whole (address space; pages count only once written) instead of growing by copies.
   constexpr std::uint64_t kChunk = 1u << 20;
   frame.clear();
+  if (limits.budget && held)
+    frame.reserve(static_cast<std::size_t>(len));
   while (frame.size() < len)
   {
     const std::size_t at = frame.size();
     const auto chunk = static_cast<std::size_t>(std::min<std::uint64_t>(kChunk, len - at));
     frame.resize(at + chunk);
-    if (!readExact(fd, frame.data() + at, chunk, stop))
+    if (!readExact(fd, frame.data() + at, chunk, stop, limits.timeout_ms))
       throw StreamError(stop && *stop ? "stopped in the middle of a frame" : "the stream ended in the middle of a frame");
   }
   return true;

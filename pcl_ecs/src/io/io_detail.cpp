@@ -88,6 +88,20 @@ std::uint32_t addField(pcl::PCLPointCloud2& cloud, const std::string& name, std:
   return f.offset;
 }
 
+std::string quote(const std::string& text)
+{
+  constexpr std::size_t kMax = 80;
+  std::string out;
+  for (std::size_t i = 0; i < text.size() && i < kMax; ++i)
+  {
+    const auto c = static_cast<unsigned char>(text[i]);
+    out += c >= 0x20 && c < 0x7f ? static_cast<char>(c) : '?';
+  }
+  if (text.size() > kMax)
+    out += "...";
+  return out;
+}
+
 bool parseNumber(const std::string& token, double& value)
 {
   if (token.empty())

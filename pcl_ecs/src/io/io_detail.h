@@ -53,6 +53,10 @@ bool storeAsciiValue(const std::string& token, const pcl::PCLPointField& f, std:
 /// Parse a decimal number; false unless the whole token is one (nan / inf accepted for floats).
 bool parseNumber(const std::string& token, double& value);
 
+/// Input text as a message quotes it: at most 80 characters, anything but printable ASCII shown as
+/// '?', "..." appended when cut.
+std::string quote(const std::string& text);
+
 template <typename... Args>
 [[noreturn]] void fail(Args&&... args)
 {

@@ -96,7 +96,7 @@ PcdHeader parsePcdHeader(const std::function<bool(std::string&)>& next_line, std
     auto needOne = [&]() -> std::uint64_t {
       std::uint64_t v = 0;
       if (args.size() != 1 || !parseUnsigned(args[0], v))
-        fail("header line ", line_no, ": ", key, " needs one non-negative integer");
+        fail("header line ", line_no, ": ", detail::quote(key), " needs one non-negative integer");
       return v;
     };
     if (key == "VERSION")
@@ -116,7 +116,7 @@ PcdHeader parsePcdHeader(const std::function<bool(std::string&)>& next_line, std
       {
         std::uint64_t v = 0;
         if (!parseUnsigned(a, v) || v == 0 || v > 1u << 20)
-          fail("header line ", line_no, ": bad ", key, " value '", a, "'");
+          fail("header line ", line_no, ": bad ", detail::quote(key), " value '", detail::quote(a), "'");
         dst.push_back(v);
       }
     }
@@ -145,7 +145,7 @@ PcdHeader parsePcdHeader(const std::function<bool(std::string&)>& next_line, std
         fail("header line ", line_no, ": VIEWPOINT needs 7 numbers");
       for (std::size_t i = 0; i < 7; ++i)
         if (!detail::parseNumber(args[i], header.viewpoint[i]))
-          fail("header line ", line_no, ": bad VIEWPOINT value '", args[i], "'");
+          fail("header line ", line_no, ": bad VIEWPOINT value '", detail::quote(args[i]), "'");
     }
     else if (key == "DATA")
     {
@@ -155,7 +155,7 @@ PcdHeader parsePcdHeader(const std::function<bool(std::string&)>& next_line, std
     }
     else
     {
-      fail("header line ", line_no, ": unknown keyword '", key, "': not a PCD header");
+      fail("header line ", line_no, ": unknown keyword '", detail::quote(key), "': not a PCD header");
     }
   }
 
@@ -184,15 +184,15 @@ PcdHeader parsePcdHeader(const std::function<bool(std::string&)>& next_line, std
   for (std::size_t f = 0; f < names.size(); ++f)
   {
     if (types[f].size() != 1)
-      fail("the header is inconsistent: TYPE '", types[f], "' of field ", names[f]);
+      fail("the header is inconsistent: TYPE '", detail::quote(types[f]), "' of field ", detail::quote(names[f]));
     const std::uint8_t dt = pcdDatatype(types[f][0], sizes[f]);
     if (dt == 0)
-      fail("the header is inconsistent: field ", names[f], " has TYPE ", types[f], " with SIZE ", sizes[f]);
+      fail("the header is inconsistent: field ", detail::quote(names[f]), " has TYPE ", detail::quote(types[f]), " with SIZE ", sizes[f]);
     if (counts[f] > 4096)
-      fail("field ", names[f], " has COUNT ", counts[f], ", more than this reader supports");
+      fail("field ", detail::quote(names[f]), " has COUNT ", counts[f], ", more than this reader supports");
     for (std::size_t g = 0; g < f; ++g)
       if (names[g] == names[f] && names[f] != "_")
-        fail("the header is inconsistent: field ", names[f], " appears twice");
+        fail("the header is inconsistent: field ", detail::quote(names[f]), " appears twice");
     detail::addField(layout, names[f], dt, static_cast<std::uint32_t>(counts[f]));
     if (layout.point_step > (1u << 20))
       fail("points of more than 1 MiB each are not supported");
@@ -324,7 +324,7 @@ void parsePcd(const std::string& bytes, pcl::PCLPointCloud2& cloud)
           if (!nextToken())
             fail("truncated: the header promises ", points, " points but the data ends after ", point);
           if (!detail::storeAsciiValue(token, f, dst + f.offset + c * detail::datatypeSize(f.datatype)))
-            fail("line ", data_line + 1, ": '", token.substr(0, 40), "' is not a number (field ", f.name, ")");
+            fail("line ", data_line + 1, ": '", detail::quote(token), "' is not a number (field ", detail::quote(f.name), ")");
         }
     }
     if (nextToken())

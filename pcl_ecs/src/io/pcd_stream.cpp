@@ -321,8 +321,8 @@ std::size_t PcdStreamReader::read(std::size_t max_points, std::vector<std::uint8
             failAt(path_, "truncated: the header promises ", header_.points, " points but the data ends after ",
                    read_ + i);
           if (!detail::storeAsciiValue(token, f, dst + f.offset + c * detail::datatypeSize(f.datatype)))
-            failAt(path_, "data line ", aline_ + 1, ": '", token.substr(0, 40), "' is not a number (field ",
-                   f.name, ")");
+            failAt(path_, "data line ", aline_ + 1, ": '", detail::quote(token), "' is not a number (field ",
+                   detail::quote(f.name), ")");
         }
     }
   }

@@ -85,7 +85,7 @@ public:
       double v = 0.0;
       const std::string token = bytes_.substr(b, pos_ - b);
       if (!detail::parseNumber(token, v))
-        fail("'", token.substr(0, 40), "' in ", what, " is not a number");
+        fail("'", detail::quote(token), "' in ", what, " is not a number");
       return v;
     }
     const std::size_t size = detail::datatypeSize(type);
@@ -172,7 +172,7 @@ void parsePly(const std::string& bytes, pcl::PCLPointCloud2& cloud)
         fail("header line ", line_no, ": bad format line");
       encoding = w[1] == "ascii" ? 0 : w[1] == "binary_little_endian" ? 1 : w[1] == "binary_big_endian" ? 2 : -1;
       if (encoding < 0)
-        fail("header line ", line_no, ": unknown format '", w[1], "'");
+        fail("header line ", line_no, ": unknown format '", detail::quote(w[1]), "'");
     }
     else if (w[0] == "element")
     {
@@ -202,14 +202,14 @@ void parsePly(const std::string& bytes, pcl::PCLPointCloud2& cloud)
         prop.type = plyType(w[1]);
         prop.name = w[2];
         if (!prop.type)
-          fail("header line ", line_no, ": unknown property type '", w[1], "'");
+          fail("header line ", line_no, ": unknown property type '", detail::quote(w[1]), "'");
       }
       else
         fail("header line ", line_no, ": bad property line");
       elements.back().properties.push_back(prop);
     }
     else
-      fail("header line ", line_no, ": unknown keyword '", w[0], "'");
+      fail("header line ", line_no, ": unknown keyword '", detail::quote(w[0]), "'");
   }
   if (encoding < 0)
     fail("the header has no format line");

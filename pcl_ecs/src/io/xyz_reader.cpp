@@ -45,7 +45,7 @@ void parseXyz(const std::string& bytes, pcl::PCLPointCloud2& cloud)
         token.assign(bytes, b, i - b);
         double v = 0.0;
         if (!detail::parseNumber(token, v))
-          fail("line ", line_no, ": '", token.substr(0, 40), "' is not a number: not an XYZ point file");
+          fail("line ", line_no, ": '", detail::quote(token), "' is not a number: not an XYZ point file");
         row.push_back(v);
       }
     }

@@ -4,6 +4,7 @@
 #include <pcl_ecs/io/pcd_stream.h>
 #include <pcl_ecs/neighborhood.h>
 #include <pcl_ecs/search/box_tree_search.h>
+#include <pcl_ecs/simplify_core.h>
 #include <pcl_ecs/spatial_order.h>
 #include <pcl_ecs/stages/ball_cover.h>
 #include <pcl_ecs/stages/density_weights.h>
@@ -283,7 +284,12 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
     const std::size_t count = j.end - j.begin;
     const std::size_t load = count + j.reach.size();
     const int axis = (j.shi[1] - j.slo[1]) > (j.shi[0] - j.slo[0]) ? 1 : 0;
-    bool split = (count > max_core || load > max_load) && count >= 2 && j.shi[static_cast<std::size_t>(axis)] > j.slo[static_cast<std::size_t>(axis)];
+    const double side = j.shi[static_cast<std::size_t>(axis)] - j.slo[static_cast<std::size_t>(axis)];
+    // A part narrower than a quarter of the halo is split for its own samples only: its load is
+    // then mostly halo, which smaller parts would not shrink (the halo's disc stays), and
+    // splitting on would only make tiles of single points.
+    const bool too_loaded = load > max_load && side > 0.25 * halo;
+    bool split = (count > max_core || too_loaded) && count >= 2 && side > 0.0;
     double value = 0.0;
     std::size_t mid = 0;
     if (split)
@@ -361,8 +367,11 @@ struct TileData
   std::vector<std::uint32_t> src_tile, src_index;
   std::vector<std::uint8_t> is_core;
   std::vector<std::uint8_t> records;  // point_step bytes each
-  /// order[o]: where point o was in the tile's files (core points first, then the halo's)
+  /// order[o]: where point o was in the tile's files (core points first, then the halo's); a
+  /// point at exactly the place of another is not loaded (see loadTile)
   std::vector<std::uint32_t> order;
+  std::uint64_t merged_core = 0;  ///< own points not loaded for that reason
+  std::size_t file_points = 0;    ///< points in the tile's files (own and halo), loaded or not
   std::size_t size() const { return gid.size(); }
 };
 
@@ -416,6 +425,12 @@ struct Plan
   std::vector<std::vector<std::uint64_t>> part_core;
 
   Eigen::Vector3d origin() const { return 0.5 * (lo + hi); }
+  /// The local frame every phase computes in: (world - origin) × scale, the scale the in-memory
+  /// filter uses (frameScale: 1 in everyday units, a power of four for extreme extents, which
+  /// scales every length exactly). Tiles, the halo and the summary stay in world units.
+  double scale() const { return frameScale((hi - lo).maxCoeff()); }
+  Eigen::Vector3d toLocal(const Eigen::Vector3d& world) const { return (world - origin()) * scale(); }
+  Eigen::Vector3d toWorld(const Eigen::Vector3d& local) const { return local / scale() + origin(); }
 };
 
 void savePlan(const Paths& paths, const Plan& plan)
@@ -801,29 +816,40 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
   plan_.axis_v = std::max(order[0], order[1]);
   if (!(ext[order[1]] > 0.0))
     failRun(input_ + ": all points lie on one line: there is no surface to simplify");
+  if (!(ext.maxCoeff() > 1e-30))
+    failRun(input_ + ": the cloud's extent (" + std::to_string(ext.maxCoeff()) + ") is too small for float precision");
 
   // Neighbourhood size from the sample: the j-th sample neighbour at distance r_j means the K-th
   // neighbour of the full cloud at about r_j sqrt(K f / j) (a surface: counts grow with r²).
-  const Eigen::Vector3d origin = 0.5 * (lo + hi);
   const int threads = resolveThreads(params_.threads);
   // The sample in Hilbert order behind the box tree (built in one parallel pass); the queries
   // below return distances only, which do not depend on the order or the back end.
   std::vector<int> morton(sample.size());
   std::iota(morton.begin(), morton.end(), 0);
-  sortBySpatialCode(
-      morton, [&](int i) { return sample[static_cast<std::size_t>(i)]; }, lo, hi, threads);
+  std::vector<std::uint64_t> codes;
+  const auto sample_at = [&](int i) { return sample[static_cast<std::size_t>(i)]; };
+  sortBySpatialCode(morton, sample_at, lo, hi, threads, &codes);
+  // Coincident points are merged before neighbourhoods (as the tiles do): they are left out here,
+  // where thousands at one spot would cost a search each over all of them and say nothing of the
+  // spacing.
+  std::vector<std::uint8_t> coincident(sample.size(), 0);
+  for (const auto& merged : removeCoincident(morton, codes, sample_at))
+    coincident[static_cast<std::size_t>(merged.first)] = 1;
   auto toLocal = [&](const Eigen::Vector3d& p) {
     pcl::PointXYZ q;
-    q.getVector3fMap() = (p - origin).cast<float>();
+    q.getVector3fMap() = plan_.toLocal(p).cast<float>();
     return q;
   };
   auto local = std::make_shared<LocalCloud>();
-  local->resize(sample.size());
-  for (std::size_t i = 0; i < sample.size(); ++i)
+  local->resize(morton.size());
+  for (std::size_t i = 0; i < morton.size(); ++i)
     (*local)[i] = toLocal(sample[static_cast<std::size_t>(morton[i])]);
+  if (morton.size() <= static_cast<std::size_t>(k))
+    failRun(input_ + ": only " + std::to_string(morton.size()) + " distinct points in the planning sample; K = " +
+            std::to_string(k) + " needs more");
   BoxTreeSearch tree(false, threads);
   tree.setInputCloud(local);
-  const int j = fraction >= 1.0 ? k : std::min<int>(8, static_cast<int>(sample.size()) - 1);
+  const int j = fraction >= 1.0 ? k : std::min<int>(8, static_cast<int>(morton.size()) - 1);
   const double scale = fraction >= 1.0 ? 1.0 : std::sqrt(static_cast<double>(k) * fraction / j);
   // Every stride-th sample point is asked (at most ~100k queries).
   const std::size_t stride = std::max<std::size_t>(1, sample.size() / 100000);
@@ -835,10 +861,20 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
 #pragma omp for schedule(static)
     for (std::ptrdiff_t q = 0; q < static_cast<std::ptrdiff_t>(rk.size()); ++q)
     {
-      tree.nearestKSearch(toLocal(sample[static_cast<std::size_t>(q) * stride]), j + 1, idx, d2);
-      rk[static_cast<std::size_t>(q)] = d2.empty() ? 0.0 : std::sqrt(static_cast<double>(d2.back())) * scale;
+      const std::size_t at = static_cast<std::size_t>(q) * stride;
+      if (coincident[at])
+      {
+        rk[static_cast<std::size_t>(q)] = -1.0;  // not asked
+        continue;
+      }
+      tree.nearestKSearch(toLocal(sample[at]), j + 1, idx, d2);
+      rk[static_cast<std::size_t>(q)] =
+          d2.empty() ? 0.0 : std::sqrt(static_cast<double>(d2.back())) * scale / plan_.scale();  // world units
     }
   }
+  rk.erase(std::remove(rk.begin(), rk.end(), -1.0), rk.end());
+  if (rk.empty())
+    failRun(input_ + ": every point of the planning sample lies at the place of another");
   double mean_rk = 0.0;
   for (double r : rk)
     mean_rk += r;
@@ -885,7 +921,21 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
   for (const Tile& t : plan_.tree.tiles)
     worst = std::max(worst, per_sample * static_cast<double>(t.core_points + t.halo_points));
   if (worst > static_cast<double>(plan_.tile_point_budget))
-    report("warning: the halo is wide for this memory limit; tiles may exceed it");
+  {
+    // The halo alone fills a tile: the run cannot keep to the limit. Say so before any work.
+    const double need = worst / 0.97;
+    if (options_.max_tile_points > 0)
+      throw LimitError("--tile-points " + std::to_string(options_.max_tile_points) +
+                       " is too small for this input: its halo (" + std::to_string(plan_.halo) +
+                       ", from its spacing) puts about " + std::to_string(static_cast<std::uint64_t>(worst)) +
+                       " points in a tile; use at least --tile-points " + std::to_string(static_cast<std::uint64_t>(need)));
+    const double usable = kConcurrentTiles * need * tileBytesPerPoint(step) / 0.7;
+    const std::uint64_t limit = baseline_bytes_ + static_cast<std::uint64_t>(usable);
+    throw LimitError("--memory-limit " + std::to_string(memory_limit_ >> 20) +
+                     "M is below what this input needs: its halo (" + std::to_string(plan_.halo) +
+                     ", from its spacing) puts about " + std::to_string(static_cast<std::uint64_t>(worst)) +
+                     " points in a tile; at least " + std::to_string((limit + (1u << 20) - 1) >> 20) + "M");
+  }
   summary_.stage_seconds[0] = secondsSince(t0);
   std::ostringstream os;
   os << "plan: " << finite << " finite points, " << plan_.tree.tiles.size() << " tile(s) of at most "
@@ -1125,10 +1175,13 @@ TileData Runner::loadTile(int t) const
   // order it found; later loads of the tile read it instead of sorting again.
   if (fs::exists(paths_.order(t)))
   {
+    // Saved as: the tile's point count, the count loaded (the others coincide with one), the order.
     d.order = readVector<std::uint32_t>(paths_.order(t));
+    bool valid = d.order.size() >= 2 && d.order[0] == n && d.order[1] == d.order.size() - 2 && d.order[1] <= n;
+    if (valid)
+      d.order.erase(d.order.begin(), d.order.begin() + 2);
     std::vector<std::uint8_t> seen(n, 0);
-    bool valid = d.order.size() == n;
-    for (std::size_t o = 0; valid && o < n; ++o)
+    for (std::size_t o = 0; valid && o < d.order.size(); ++o)
     {
       valid = d.order[o] < n && !seen[d.order[o]];
       if (valid)
@@ -1164,27 +1217,44 @@ TileData Runner::loadTile(int t) const
     }
     radixSortThenTies(keys, [](const Key& k) { return k.code; },
                       [](const Key& a, const Key& b) { return a.gid < b.gid; });
-    d.order.resize(n);
+    // Coincident points, as in the filter: one of each group (the smallest input index) stands for
+    // it, the others are not loaded. A group has one position, so every tile that holds it, as
+    // its own or in its halo, holds all of it and keeps the same point.
+    std::vector<int> ids(n);
+    std::vector<std::uint64_t> sorted_codes(n);
     for (std::size_t o = 0; o < n; ++o)
-      d.order[o] = keys[o].at;
+    {
+      ids[o] = static_cast<int>(o);
+      sorted_codes[o] = keys[o].code;
+    }
+    removeCoincident(ids, sorted_codes, [&](int o) { return pos[keys[static_cast<std::size_t>(o)].at]; });
+    d.order.resize(ids.size());
+    for (std::size_t o = 0; o < ids.size(); ++o)
+      d.order[o] = keys[static_cast<std::size_t>(ids[o])].at;
   }
-  d.cloud->resize(n);
-  d.gid.resize(n);
-  d.src_tile.resize(n);
-  d.src_index.resize(n);
-  d.is_core.resize(n);
-  d.records.resize(n * step);
+  for (const std::uint32_t i : d.order)
+    d.merged_core += i < nc ? 1 : 0;
+  d.merged_core = nc - d.merged_core;
+  const std::size_t m = d.order.size();
+  d.file_points = n;
+  d.cloud->resize(m);
+  d.gid.resize(m);
+  d.src_tile.resize(m);
+  d.src_index.resize(m);
+  d.is_core.resize(m);
+  d.records.resize(m * step);
   const Eigen::Vector3d origin = plan_.origin();
+  const double scale = plan_.scale();
   constexpr std::size_t kAhead = 8;  // records fetched ahead: the gather's reads are scattered
-  for (std::size_t o = 0; o < n; ++o)
+  for (std::size_t o = 0; o < m; ++o)
   {
-    if (o + kAhead < n)
+    if (o + kAhead < m)
       __builtin_prefetch(at(d.order[o + kAhead]));
     const std::size_t i = d.order[o];
     const std::uint8_t* r = at(i);
     // From the record, which is fetched ahead (a position kept from the sort would be one more
     // scattered read).
-    (*d.cloud)[o].getVector3fMap() = (position(i) - origin).cast<float>();
+    (*d.cloud)[o].getVector3fMap() = ((position(i) - origin) * scale).cast<float>();  // plan_.toLocal
     std::memcpy(&d.gid[o], r, 8);
     d.is_core[o] = i < nc;
     if (i < nc)
@@ -1258,8 +1328,8 @@ void Runner::phaseA(int t)
   // Sums over this tile's own points (each point counted once in all): Σ measure, count,
   // neighbourhoods that reach past the halo.
   const Tile& tile = plan_.tree.tiles[static_cast<std::size_t>(t)];
-  const Eigen::Vector3d origin = plan_.origin();
-  std::vector<double> sums(3, 0.0);
+  std::vector<double> sums(4, 0.0);
+  sums[3] = static_cast<double>(d.merged_core);
   for (std::size_t i = 0; i < n; ++i)
   {
     std::uint8_t* a = attr.data() + i * kAttrBytes;
@@ -1271,12 +1341,12 @@ void Runner::phaseA(int t)
       continue;
     sums[0] += measure[i];
     sums[1] += 1.0;
-    const Eigen::Vector3d p = (*d.cloud)[i].getVector3fMap().cast<double>() + origin;
+    const Eigen::Vector3d p = plan_.toWorld((*d.cloud)[i].getVector3fMap().cast<double>());
     const double u = p[plan_.axis_u], v = p[plan_.axis_v];
     const double room = std::min({u - (tile.lo[0] - plan_.halo), (tile.hi[0] + plan_.halo) - u,
                                   v - (tile.lo[1] - plan_.halo), (tile.hi[1] + plan_.halo) - v});
     if (std::sqrt(static_cast<double>(sqrDistance(*d.cloud, i, static_cast<std::size_t>(table.neighbors(i)[k - 1])))) >
-        room)
+        room * plan_.scale())
       sums[2] += 1.0;
   }
   // Eq. 5 is the distance to the nearest non-feature neighbour, and which neighbours are features
@@ -1328,7 +1398,12 @@ void Runner::phaseA(int t)
   front_count.insert(front_count.end(), front.begin(), front.end());
   fs::create_directories(paths_.root / "a");
   writeVectorAtomic(paths_.frontier(t), front_count);
-  writeVectorAtomic(paths_.order(t), d.order);
+  {
+    // The tile's point count and the count loaded first: loadTile checks the order against both.
+    std::vector<std::uint32_t> saved{static_cast<std::uint32_t>(d.file_points), static_cast<std::uint32_t>(d.order.size())};
+    saved.insert(saved.end(), d.order.begin(), d.order.end());
+    writeVectorAtomic(paths_.order(t), saved);
+  }
   writeVectorAtomic(paths_.attr(t), attr);
   writeVectorAtomic(paths_.sumA(t), sums);  // the marker: written last
   std::lock_guard<std::mutex> lock(measure_done_mutex_);
@@ -1490,7 +1565,7 @@ void Runner::phaseC(int t)
   BoxTreeSearch tree(false, tile_threads_);  // tiles are in Hilbert order
   tree.setInputCloud(d.cloud);
   CoverInput in{*d.cloud,          normals,      weights,     is_feature, curvature, density, mean_abs_h_,
-                mean_spacing_,     neighborhood_radius_, summary_.bbox_diagonal, tree};
+                mean_spacing_,     neighborhood_radius_, summary_.bbox_diagonal * plan_.scale(), tree};
   in.centre_allowed = &d.is_core;
   in.pre_covered = &pre_covered;
   Parameters p = params_;
@@ -1514,12 +1589,11 @@ void Runner::phaseC(int t)
     std::memcpy(rec, d.records.data() + i * step, step);
     setRecordNormal(rec, normals[i], (*d.cloud)[i].getVector3fMap().cast<double>());
   }
-  const Eigen::Vector3d origin = plan_.origin();
   for (const CoverBall& b : cover.balls)
   {
     std::uint8_t* rec = out.data() + (o++) * step;
     std::memcpy(rec, d.records.data() + static_cast<std::size_t>(b.attribute_source) * step, step);
-    const Eigen::Vector3d world = b.representative + origin;
+    const Eigen::Vector3d world = plan_.toWorld(b.representative);
     // Written through float like the in-memory filter's PCL point types.
     xyz.set(rec, static_cast<float>(world.x()), static_cast<float>(world.y()), static_cast<float>(world.z()));
     setRecordNormal(rec, b.normal, b.representative);
@@ -1621,12 +1695,13 @@ void Runner::phaseD(int t)
   {
     const io::XyzAccess xyz(header_);
     const Eigen::Vector3d origin = plan_.origin();
+    const double scale = plan_.scale();
     auto positions = [&](const std::vector<std::uint8_t>& bytes, std::vector<Eigen::Vector3d>& into) {
       for (std::size_t o = 0; o + step <= bytes.size(); o += step)
       {
         Eigen::Vector3d w;
         xyz.get(bytes.data() + o, w.x(), w.y(), w.z());
-        into.push_back(w - origin);
+        into.push_back((w - origin) * scale);  // plan_.toLocal
       }
     };
     std::vector<Eigen::Vector3d> outputs, candidates;
@@ -1635,7 +1710,7 @@ void Runner::phaseD(int t)
     for (std::size_t s = 0; s < plan_.tree.tiles.size(); ++s)
     {
       const Tile& other = plan_.tree.tiles[s];
-      if (tileDistance(tile, other) > gap)  // distances in the tiling plane are at most the 3D ones
+      if (tileDistance(tile, other) * plan_.scale() > gap)  // in the tiling plane: at most the 3D distance
         continue;
       positions(readVector<std::uint8_t>(paths_.out(static_cast<int>(s))), outputs);
       if (other.colour < tile.colour)
@@ -1815,7 +1890,7 @@ StreamSummary Runner::run()
   summary_.axis_v = plan_.axis_v;
   summary_.tile_point_budget = plan_.tile_point_budget;
   summary_.split_runs = plan_.parts;
-  viewpoint_local_ = Eigen::Vector3d(header_.viewpoint[0], header_.viewpoint[1], header_.viewpoint[2]) - plan_.origin();
+  viewpoint_local_ = plan_.toLocal(Eigen::Vector3d(header_.viewpoint[0], header_.viewpoint[1], header_.viewpoint[2]));
   normal_fields_ = {header_.fieldIndex("normal_x"), header_.fieldIndex("normal_y"), header_.fieldIndex("normal_z")};
   const int tiles = static_cast<int>(plan_.tree.tiles.size());
   auto pending = [&](const std::function<fs::path(int)>& marker) {
@@ -1830,16 +1905,18 @@ StreamSummary Runner::run()
   // Phase A, then δ over all points.
   runStage("A (neighbourhoods, normals, eq. 1-3, 7-11)", 2, pending([&](int t) { return paths_.sumA(t); }),
            [&](int t) { phaseA(t); });
-  double sum_measure = 0.0, count = 0.0, incomplete = 0.0;
+  double sum_measure = 0.0, count = 0.0, incomplete = 0.0, merged = 0.0;
   for (int t = 0; t < tiles; ++t)
   {
     const auto s = readVector<double>(paths_.sumA(t));
     sum_measure += s.at(0);
     count += s.at(1);
     incomplete += s.at(2);
+    merged += s.at(3);
   }
+  summary_.merged_points = static_cast<std::uint64_t>(merged);
   delta_ = params_.feature_factor * sum_measure / count;
-  summary_.feature_threshold = delta_;
+  summary_.feature_threshold = delta_ / plan_.scale();
   summary_.incomplete_neighbourhoods = static_cast<std::uint64_t>(incomplete);
   track_scratch();
 
@@ -1857,18 +1934,19 @@ StreamSummary Runner::run()
   mean_spacing_ = sb[0] / nonfeature;
   neighborhood_radius_ = sb[1] / nonfeature;
   mean_abs_h_ = sb[2] / nonfeature;
-  summary_.mean_spacing = mean_spacing_;
-  summary_.neighborhood_radius = neighborhood_radius_;
-  summary_.mean_abs_curvature = mean_abs_h_;
-  cap_ = params_.radius_cap_factor * neighborhood_radius_;
-  if (cap_ > plan_.halo)
+  summary_.mean_spacing = mean_spacing_ / plan_.scale();
+  summary_.neighborhood_radius = neighborhood_radius_ / plan_.scale();
+  summary_.mean_abs_curvature = mean_abs_h_ * plan_.scale();
+  cap_ = params_.radius_cap_factor * neighborhood_radius_;  // local units, as every phase's lengths
+  const double cap_world = cap_ / plan_.scale();
+  if (cap_world > plan_.halo)
   {
     summary_.halo_too_narrow = true;
-    report("warning: the largest ball (" + std::to_string(cap_) + ") is wider than the halo (" +
+    report("warning: the largest ball (" + std::to_string(cap_world) + ") is wider than the halo (" +
            std::to_string(plan_.halo) + "); balls at tile borders may be cut");
   }
   // Tiles closer than two ball radii interact: they get different colours and run one after another.
-  const int colours = colourTiles(plan_.tree.tiles, 2.0 * cap_ * 1.001 + 1e-12);
+  const int colours = colourTiles(plan_.tree.tiles, 2.0 * cap_world * 1.001 + 1e-12 / plan_.scale());
   track_scratch();
 
   fs::create_directories(paths_.root / "c");

@@ -71,6 +71,7 @@ struct StreamSummary
 {
   std::uint64_t input_points = 0;
   std::uint64_t finite_points = 0;
+  std::uint64_t merged_points = 0;   ///< of those, points at exactly the place of another, merged into it
   std::uint64_t output_points = 0;
   std::uint64_t feature_points = 0;
   std::uint64_t balls = 0;           ///< ball representatives, gap points included
