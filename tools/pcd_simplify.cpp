@@ -467,34 +467,33 @@ int runTool(int argc, char** argv)
 
   // A PCD's header says how many points it holds: a cloud this machine cannot hold in memory (or a
   // header that claims one) is refused before anything is allocated.
-  if (io::formatFromPath(o.input) == io::Format::Pcd)
+  // The header says how large the cloud is: one that cannot fit, or that the file cannot hold, is
+  // refused before the file is read whole.
   {
-    std::uint64_t points = 0, step = 0;
+    io::CloudProbe probe;
     try
     {
-      const io::PcdStreamReader header(o.input);
-      points = header.header().points;
-      step = header.header().point_step;
+      probe = io::probeCloud(o.input);
     }
     catch (const io::FormatError& e)
     {
-      // A header line too long to be one is refused here, before the file is read whole; any
+      // A header line too long to be one, or a body the file cannot hold, is refused here; any
       // other problem is said by the full read below, as for any file.
-      if (std::string(e.what()).find("KiB: not a PCD header") != std::string::npos)
-        throw ToolError(kExitInput, e.what());
+      const std::string what = e.what();
+      if (what.find("KiB: not a P") != std::string::npos || what.find("truncated") != std::string::npos)
+        throw ToolError(kExitInput, what);
     }
-    catch (const std::exception&)
-    {
-    }
-    const double need = static_cast<double>(points) * (kInMemoryBytesPerPoint + 3.0 * static_cast<double>(step));
+    const double need = static_cast<double>(probe.points) *
+                        (kInMemoryBytesPerPoint + 3.0 * static_cast<double>(probe.point_step));
     const double available = static_cast<double>(stream::availableMemory());
     if (available > 0.0 && need > available)
     {
       char line[400];
       std::snprintf(line, sizeof line,
-                    "%s: %llu points need about %.1f GiB in memory; %.1f GiB are available: use --stream "
-                    "(docs/STREAMING.md)",
-                    o.input.c_str(), static_cast<unsigned long long>(points), need / (1u << 30), available / (1u << 30));
+                    "%s: %llu points need about %.1f GiB in memory; %.1f GiB are available%s",
+                    o.input.c_str(), static_cast<unsigned long long>(probe.points), need / (1u << 30),
+                    available / (1u << 30),
+                    io::formatFromPath(o.input) == io::Format::Pcd ? ": use --stream (docs/STREAMING.md)" : "");
       throw ToolError(kExitInput, line);
     }
   }

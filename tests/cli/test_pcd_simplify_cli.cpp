@@ -5,9 +5,13 @@
 #include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/cloud_io.h>
 
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <cstdlib>
@@ -16,6 +20,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -662,4 +667,95 @@ TEST_F(Cli, MessagesQuoteAtMostEightyCharactersOfInput)
       EXPECT_LE(longest_run(r.err, c), 80u) << file << mode << ": " << r.err.substr(0, 300);
       EXPECT_FALSE(fs::exists(path("out.pcd")));
     }
+}
+
+namespace
+{
+/// Feeds `bytes` into the FIFO at `path` once a reader has opened it (gives up after 20 s, or when
+/// the reader goes away).
+std::thread feedFifo(const std::string& path, std::string bytes)
+{
+  return std::thread([path, bytes = std::move(bytes)] {
+    int fd = -1;
+    for (int i = 0; i < 2000 && fd < 0; ++i)
+    {
+      fd = ::open(path.c_str(), O_WRONLY | O_NONBLOCK);  // ENXIO until a reader has it open
+      if (fd < 0)
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    if (fd < 0)
+      return;
+    ::fcntl(fd, F_SETFL, 0);  // blocking writes from here on
+    std::size_t put = 0;
+    while (put < bytes.size())
+    {
+      const ssize_t w = ::write(fd, bytes.data() + put, bytes.size() - put);
+      if (w <= 0)
+        break;  // the reader went away
+      put += static_cast<std::size_t>(w);
+    }
+    ::close(fd);
+  });
+}
+}  // namespace
+
+// A FIFO (or any pipe given by name) is read once, as it comes: in memory (PCD and PLY) and with
+// --stream (binary and ascii PCD) the result is the regular file's; a binary_compressed PCD cannot
+// be streamed from a pipe (its fields are stored one after another) and says so. Before, the
+// in-memory reader consumed the header to size the cloud and read garbage, and --stream read the
+// data twice ("truncated: the data ends in point 0").
+TEST_F(Cli, FifoInputsAreReadOnce)
+{
+  ::signal(SIGPIPE, SIG_IGN);
+  const std::string bunny = kShared + "/bunny.pcd";
+  pcl::PCLPointCloud2 blob = load(bunny);
+  pcl_ecs::io::writeCloud(path("ascii.pcd"), pcl_ecs::io::Format::Pcd, blob, pcl_ecs::io::Encoding::Ascii);
+  pcl_ecs::io::writeCloud(path("packed.pcd"), pcl_ecs::io::Format::Pcd, blob, pcl_ecs::io::Encoding::BinaryCompressed);
+  pcl_ecs::io::writeCloud(path("bunny.ply"), pcl_ecs::io::Format::Ply, blob, pcl_ecs::io::Encoding::Binary);
+  struct Case
+  {
+    std::string file, fifo, mode;
+  };
+  for (const Case& c : {Case{bunny, "in.pcd", ""}, Case{path("bunny.ply"), "in.ply", ""},
+                        Case{bunny, "in.pcd", " --stream"}, Case{path("ascii.pcd"), "in.pcd", " --stream"},
+                        Case{path("packed.pcd"), "in.pcd", ""}})
+  {
+    SCOPED_TRACE(c.file + c.mode);
+    fs::remove(path(c.fifo));
+    ASSERT_EQ(::mkfifo(path(c.fifo).c_str(), 0600), 0);
+    const RunResult ref = run(c.file + " " + path("ref.pcd") + c.mode);
+    ASSERT_EQ(ref.code, 0) << ref.err;
+    std::thread feeder = feedFifo(path(c.fifo), slurp(c.file));
+    const RunResult r = run(path(c.fifo) + " " + path("out.pcd") + c.mode);
+    feeder.join();
+    ASSERT_EQ(r.code, 0) << r.err;
+    const pcl::PCLPointCloud2 a = load(path("ref.pcd")), b = load(path("out.pcd"));
+    EXPECT_EQ(a.width, b.width);
+    EXPECT_EQ(a.data, b.data);
+  }
+  fs::remove(path("in.pcd"));
+  ASSERT_EQ(::mkfifo(path("in.pcd").c_str(), 0600), 0);
+  std::thread feeder = feedFifo(path("in.pcd"), slurp(path("packed.pcd")));
+  const RunResult r = run(path("in.pcd") + " " + path("streamed.pcd") + " --stream");
+  feeder.join();
+  EXPECT_EQ(r.code, 3) << r.err;
+  EXPECT_NE(r.err.find("cannot be streamed from a pipe"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("streamed.pcd")));
+}
+
+// A 2 GB sparse PLY whose header declares 179M vertices it does not hold is refused from its
+// header, unread (it was read whole first: 4.2 GB and 15 s before the same message).
+TEST_F(Cli, APlyPromisingMoreThanItHoldsIsRefusedUnread)
+{
+  std::ofstream(path("huge.ply"), std::ios::binary)
+      << "ply\nformat binary_little_endian 1.0\nelement vertex 179000000\nproperty float x\nproperty float y\n"
+         "property float z\nend_header\n";
+  fs::resize_file(path("huge.ply"), 2000000000ull);
+  const RunResult r = run(path("huge.ply") + " " + path("out.pcd"));
+  EXPECT_EQ(r.code, 3) << r.err;
+  EXPECT_NE(r.err.find("truncated: 179000000 vertices"), std::string::npos) << r.err;
+#ifndef PCL_ECS_SANITIZED
+  EXPECT_LT(r.peak_rss_kib, 100L * 1024) << "read whole: " << r.peak_rss_kib / 1024 << " MiB";
+#endif
+  EXPECT_FALSE(fs::exists(path("out.pcd")));
 }

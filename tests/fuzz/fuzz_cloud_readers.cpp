@@ -2,7 +2,7 @@
 // the file. Any input must either parse or throw FormatError; a crash, a sanitizer report or an
 // allocation beyond the RSS limit is a bug. What parses is also converted to a point type (every
 // field type through io::fromCloud) and written as PCD, which must parse again to the same
-// packed records.
+// packed records. A PLY header's probe must agree with the parser.
 #include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/cloud_io.h>
 
@@ -24,7 +24,26 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     switch (data[0] % 3)
     {
     case 0: pcl_ecs::io::parsePcd(bytes, cloud); break;
-    case 1: pcl_ecs::io::parsePly(bytes, cloud); break;
+    case 1:
+    {
+      // The header probe (which refuses a body the file cannot hold, unread) must agree with the
+      // parser on whatever the parser accepts.
+      std::uint64_t probed = 0;
+      bool probe_ok = true;
+      try
+      {
+        std::istringstream in(bytes);
+        probed = pcl_ecs::io::probePly(in, bytes.size()).points;
+      }
+      catch (const pcl_ecs::io::FormatError&)
+      {
+        probe_ok = false;
+      }
+      pcl_ecs::io::parsePly(bytes, cloud);
+      if (!probe_ok || probed != static_cast<std::uint64_t>(cloud.width) * cloud.height)
+        __builtin_trap();
+      break;
+    }
     default: pcl_ecs::io::parseXyz(bytes, cloud); break;
     }
     // What parsed must be self-consistent.

@@ -626,8 +626,8 @@ TEST_F(NodeTest, ReadTimeoutFreesTheBudgetOfAStalledProducer)
 
 // 24 producers send a 12 MB frame each at once: with --max-bytes-in-flight 40M the node never holds
 // more than that of frames (its peak RSS grows by under 100 MB, not the 288 MB they add up to: 415
-// MB without the bound), and every
-// frame is accounted for (these are bad frames: a valid header over padding, refused at once).
+// MB without the bound), and every frame is accounted for (these are bad frames: a valid header
+// over padding, refused at once).
 TEST_F(NodeTest, BytesInFlightBoundTheMemoryOfManyProducers)
 {
   const int port = freePort();

@@ -1,5 +1,7 @@
 #include "io_detail.h"
 
+#include <pcl_ecs/io/pcd_stream.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
@@ -55,6 +57,34 @@ const char* formatName(Format format)
   }
 }
 
+CloudProbe probeCloud(const std::string& path)
+{
+  std::error_code ec;
+  const Format format = formatFromPath(path);
+  if (!fs::is_regular_file(path, ec) || (format != Format::Pcd && format != Format::Ply))
+    return {};
+  const std::uint64_t size = fs::file_size(path, ec);
+  if (ec)
+    return {};
+  try
+  {
+    if (format == Format::Pcd)
+    {
+      const PcdStreamReader reader(path);
+      return {reader.header().points, reader.header().point_step};
+    }
+    std::ifstream in(path, std::ios::binary);
+    if (!in)
+      return {};
+    return probePly(in, size);
+  }
+  catch (const FormatError& e)
+  {
+    const std::string what = e.what();
+    throw FormatError(what.rfind(path + ":", 0) == 0 ? what : path + ": " + what);
+  }
+}
+
 void readCloud(const std::string& path, pcl::PCLPointCloud2& cloud)
 {
   const Format format = formatFromPath(path);
@@ -66,6 +96,8 @@ void readCloud(const std::string& path, pcl::PCLPointCloud2& cloud)
     throw FileError(path + ": no such file");
   if (fs::is_directory(status))
     throw FileError(path + ": is a directory, not a point cloud file");
+  if (format == Format::Ply)
+    probeCloud(path);  // a header that promises more than the file holds: refused unread
   std::ifstream in(path, std::ios::binary);
   if (!in)
     throw FileError(path + ": cannot be opened for reading (" + std::strerror(errno) + ")");

@@ -158,6 +158,10 @@ PcdStreamReader::PcdStreamReader(const std::string& path) : path_(path)
     throw FileError(path + ": no such file");
   if (std::filesystem::is_directory(path, ec))
     throw FileError(path + ": is a directory, not a file");
+  {
+    std::error_code ec;
+    seekable_ = std::filesystem::is_regular_file(path, ec);
+  }
   in_.open(path, std::ios::binary);
   if (!in_)
     throw FileError(path + ": cannot open it for reading (" + std::strerror(errno) + ")");
@@ -202,6 +206,24 @@ void PcdStreamReader::openData()
   read_ = 0;
   decoders_.clear();
   in_.clear();
+  if (!seekable_)
+  {
+    // Read as it comes: right after the header, once. Truncation shows when the data ends.
+    if (opened_)
+      failAt(path_, "is a pipe or FIFO and cannot be read twice");
+    if (header_.data == PcdData::BinaryCompressed)
+      failAt(path_, "binary_compressed data cannot be streamed from a pipe or FIFO (its fields are stored one "
+                    "after another): give a file, or read it in memory (without --stream)");
+    opened_ = true;
+    if (header_.data == PcdData::Ascii)
+    {
+      abuf_.resize(1 << 20);
+      apos_ = aend_ = 0;
+      aline_ = 0;
+    }
+    return;
+  }
+  opened_ = true;
   in_.seekg(static_cast<std::streamoff>(data_offset_));
   const std::uint64_t total = static_cast<std::uint64_t>(header_.point_step) * header_.points;
   std::error_code ec;

@@ -134,18 +134,46 @@ int colourChannel(const std::string& p)
   if (p == "alpha" || p == "a" || p == "diffuse_alpha") return 3;
   return -1;
 }
-}  // namespace
 
-void parsePly(const std::string& bytes, pcl::PCLPointCloud2& cloud)
+/// What a PLY header declares.
+struct PlyHeader
 {
-  cloud = pcl::PCLPointCloud2{};
+  int encoding = -1;  // 0 ascii, 1 little endian, 2 big endian
+  std::vector<Element> elements;
+  std::size_t body = 0;  // where the body starts
+  std::vector<Element>::const_iterator vertex() const
+  {
+    return std::find_if(elements.begin(), elements.end(), [](const Element& e) { return e.name == "vertex"; });
+  }
+  /// The fewest body bytes the elements up to the vertices need: a value takes at least one byte
+  /// in ascii (plus a separator) and its size in binary; a list at least its length.
+  std::uint64_t leastBodyBytes() const
+  {
+    std::uint64_t total = 0;
+    for (auto e = elements.begin(); e != elements.end(); ++e)
+    {
+      std::uint64_t record = 0;
+      for (const auto& q : e->properties)
+        record += encoding == 0 ? 1 : detail::datatypeSize(q.count_type ? q.count_type : q.type);
+      total += record * e->count;
+      if (e == vertex())
+        break;
+    }
+    return total;
+  }
+};
+
+/// Parse the header held at the start of `bytes` (it must hold all of it).
+PlyHeader parsePlyHeader(const std::string& bytes)
+{
   if (bytes.empty())
     fail("the file is empty");
   if (bytes.compare(0, 3, "ply") != 0 || bytes.size() < 4 || (bytes[3] != '\n' && bytes[3] != '\r'))
     fail("it does not start with 'ply': not a PLY file");
+  PlyHeader h;
   std::size_t pos = 0;
-  int encoding = -1;
-  std::vector<Element> elements;
+  int& encoding = h.encoding;
+  std::vector<Element>& elements = h.elements;
   int line_no = 0;
   for (;;)
   {
@@ -213,10 +241,24 @@ void parsePly(const std::string& bytes, pcl::PCLPointCloud2& cloud)
   }
   if (encoding < 0)
     fail("the header has no format line");
-  const auto vertex_it = std::find_if(elements.begin(), elements.end(), [](const Element& e) { return e.name == "vertex"; });
-  if (vertex_it == elements.end() || vertex_it->count == 0)
+  if (h.vertex() == elements.end() || h.vertex()->count == 0)
     fail("it has no vertices (no 'element vertex' or a count of 0)");
+  h.body = pos;
+  return h;
+}
+}  // namespace
+
+void parsePly(const std::string& bytes, pcl::PCLPointCloud2& cloud)
+{
+  cloud = pcl::PCLPointCloud2{};
+  const PlyHeader h = parsePlyHeader(bytes);
+  const int encoding = h.encoding;
+  const std::vector<Element>& elements = h.elements;
+  const std::size_t pos = h.body;
+  const auto vertex_it = h.vertex();
   const Element& vertex = *vertex_it;
+  if (h.leastBodyBytes() > bytes.size() - pos)
+    fail("truncated: ", vertex.count, " vertices need more bytes than the file holds");
 
   // Fields of the cloud, from the vertex properties.
   std::vector<int> field_of(vertex.properties.size(), -1);
@@ -325,6 +367,38 @@ void parsePly(const std::string& bytes, pcl::PCLPointCloud2& cloud)
     }
   }
   detail::setDenseFlag(cloud);
+}
+
+CloudProbe probePly(std::istream& in, std::uint64_t file_size)
+{
+  // The header's lines only (at most 10000 of at most kMaxHeaderLine bytes each), never the body.
+  std::string header, line;
+  for (int n = 0; n < 10001; ++n)
+  {
+    line.clear();
+    char c = 0;
+    while (in.get(c) && c != '\n')
+    {
+      line += c;
+      if (line.size() > detail::kMaxHeaderLine)
+        fail("header line ", n + 1, " is longer than ", detail::kMaxHeaderLine / 1024, " KiB: not a PLY header");
+    }
+    if (!in && line.empty())
+      break;
+    header += line;
+    header += '\n';
+    if (words(line) == std::vector<std::string>{"end_header"})
+      break;
+  }
+  const PlyHeader h = parsePlyHeader(header);
+  const Element& vertex = *h.vertex();
+  if (h.body > file_size || h.leastBodyBytes() > file_size - h.body)
+    fail("truncated: ", vertex.count, " vertices need more bytes than the file holds");
+  CloudProbe probe;
+  probe.points = vertex.count;
+  for (const auto& q : vertex.properties)
+    probe.point_step += q.count_type ? 0 : detail::datatypeSize(q.type);
+  return probe;
 }
 
 }  // namespace io

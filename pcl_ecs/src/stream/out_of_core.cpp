@@ -680,6 +680,12 @@ private:
     return baseline_bytes_ + static_cast<std::uint64_t>(usable);
   }
   void scanAndPlan(io::PcdStreamReader& reader);
+  /// A binary regular file is read again by the split; anything else is copied to scratch once.
+  bool readTwice() const
+  {
+    std::error_code ec;
+    return header_.data == io::PcdData::Binary && fs::is_regular_file(input_, ec);
+  }
   void split();
   TileData loadTile(int t) const;
   void phaseA(int t);
@@ -737,8 +743,9 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
   // A binary input is read again by the split, straight from its records (two reads of the input
   // are less I/O than a read, a copy written to scratch and its read). An ASCII or compressed one
   // is parsed once: its finite points go to scratch as they come (with their input index), and
-  // the split reads them from there; the input is not opened again.
-  const bool copy_points = header_.data != io::PcdData::Binary;
+  // the split reads them from there; the input is not opened again. So is any input that is not
+  // a regular file (a pipe, a FIFO): it can be read only once.
+  const bool copy_points = !readTwice();
   const std::string copy_tmp = paths_.points().string() + ".tmp";
   std::ofstream copy;
   if (copy_points)
@@ -952,7 +959,7 @@ void Runner::split()
   const std::size_t tiles = plan_.tree.tiles.size();
   // Where the finite points are: a binary input's own records (input index = record number,
   // the non-finite ones skipped again), else pass 1's copy (input index, record).
-  const bool from_input = header_.data == io::PcdData::Binary;
+  const bool from_input = readTwice();
   const fs::path source = from_input ? fs::path(input_) : paths_.points();
   const std::size_t record = from_input ? step : 8 + step;
   const std::uint64_t records = from_input ? plan_.input_points : plan_.finite_points;

@@ -10,6 +10,7 @@
 
 #include <array>
 #include <cstdint>
+#include <istream>
 #include <ostream>
 #include <stdexcept>
 #include <vector>
@@ -71,8 +72,24 @@ void parsePly(const std::string& bytes, pcl::PCLPointCloud2& cloud);
 void parseXyz(const std::string& bytes, pcl::PCLPointCloud2& cloud);
 
 /** \brief Read `path`, by its extension, checking that the content matches it. Throws FileError
- * (missing, unreadable, a directory, empty) or FormatError (prefixed with the path). */
+ * (missing, unreadable, a directory, empty) or FormatError (prefixed with the path). A PLY file
+ * whose header declares more vertices than the file can hold is refused before its body is read.
+ * A pipe or FIFO is read once, as it comes. */
 void readCloud(const std::string& path, pcl::PCLPointCloud2& cloud);
+
+/** \brief What a file's header declares, read without its body. */
+struct CloudProbe
+{
+  std::uint64_t points = 0;      ///< points declared
+  std::uint64_t point_step = 0;  ///< bytes of a point's values (about a record in memory)
+};
+/** \brief The header of a regular PCD or PLY file at `path` (XYZ files have none: zeros; so has
+ * anything that is not a regular file, which is never read here). Throws FormatError (prefixed
+ * with the path) for a bad header or, for binary data, one that declares more points than the
+ * file holds. */
+CloudProbe probeCloud(const std::string& path);
+/** \brief probeCloud for a PLY header read from `in`; `file_size` bounds the body. */
+CloudProbe probePly(std::istream& in, std::uint64_t file_size);
 
 /** \brief Write `cloud` to `path` as `format` (Pcd or Ply). Writes the path given directly; use
  * AtomicOutput for the write-then-rename. Throws FileError. */

@@ -58,7 +58,8 @@ class PcdStreamReader
 {
 public:
   /** \brief Open `path` and read its header. Throws FileError or FormatError (prefixed with the
-   * path). */
+   * path). A pipe or FIFO is read as it comes, once: ascii and binary data (a binary_compressed
+   * one is refused: its fields are stored one after another), no rewind(). */
   explicit PcdStreamReader(const std::string& path);
   ~PcdStreamReader();
   PcdStreamReader(const PcdStreamReader&) = delete;
@@ -86,6 +87,8 @@ private:
   std::uint64_t data_offset_ = 0;  ///< byte where the data starts
   std::uint64_t read_ = 0;
   std::uint64_t compressed_size_ = 0;
+  bool seekable_ = true;  ///< a regular file (not a pipe or FIFO, which are read once, as they come)
+  bool opened_ = false;   ///< openData() has run once
   std::ifstream in_;
   std::vector<std::unique_ptr<Decoder>> decoders_;  // binary_compressed: one per field
   // ascii: a buffered tokenizer
