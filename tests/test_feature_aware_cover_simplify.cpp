@@ -510,8 +510,9 @@ TEST(Filter, NoPointFartherThanTheGapFromTheOutput)
 // On the bunny at 10% the gap points keep the size out of reach at the target's cap, so the search
 // widens the gap bound; once two searches show how the gap points fall, it takes several ×1.1
 // steps at once, and a search at a cap already found saturated skips its 4T probe. The size is
-// still within 1%, the bound wider than the default, and the covers (deterministic) at most 11:
-// one ×1.1 step per search, each with its 4T probe, took 14.
+// still within 1%, the bound wider than the default, and the trials (deterministic) at most 11:
+// one ×1.1 step per search, each with its 4T probe, took 14; the covers run at most 6 (a widened
+// gap bound reuses the cover).
 TEST(Filter, TargetSearchWidensTheGapInFewCovers)
 {
   auto cloud = loadShared("bunny.pcd");
@@ -522,6 +523,42 @@ TEST(Filter, TargetSearchWidensTheGapInFewCovers)
   EXPECT_NEAR(static_cast<double>(out.size()), 3600.0, 36.0);
   EXPECT_GT(s.max_gap, 1.05 * 0.6 * s.radius_cap_factor * s.neighborhood_radius) << "the gap bound was widened";
   EXPECT_LE(s.target_iterations, 11);
+  EXPECT_LE(s.cover_passes, 6);
+}
+
+// The target-size search reuses covers (a gap bound widened at the same T and cap, a T tried
+// before) and stops probing T on a saturated cover: what it returns is exactly the plain run at
+// the T, cap and gap bound it settled on, on shapes where the gap, the cap and T each decide, and
+// in fewer covers than trials.
+TEST(Filter, TargetSearchResultIsThePlainRunAtItsSettings)
+{
+  struct Case
+  {
+    const char* file;
+    double ratio;
+  };
+  for (const Case& c : {Case{"bunny.pcd", 0.1}, Case{"bunny.pcd", 0.03}, Case{"fandisk_scan.pcd", 0.1}})
+  {
+    SCOPED_TRACE(std::string(c.file) + " " + std::to_string(c.ratio));
+    auto cloud = loadShared(c.file);
+    const auto target = static_cast<std::size_t>(c.ratio * static_cast<double>(cloud->size()));
+    Filter f;
+    f.setTargetSize(target);
+    const Cloud out = run(cloud, f);
+    const auto& s = f.getResult().summary;
+    EXPECT_NEAR(static_cast<double>(out.size()), static_cast<double>(target), 0.01 * static_cast<double>(target));
+    EXPECT_LT(s.cover_passes, s.target_iterations) << "no cover was reused";
+    Filter plain;
+    plain.setErrorThreshold(s.error_threshold);
+    plain.setRadiusCapFactor(s.radius_cap_factor);
+    plain.setMaxGapFactor(s.max_gap / (s.radius_cap_factor * s.neighborhood_radius));
+    const Cloud ref = run(cloud, plain);
+    ASSERT_EQ(ref.size(), out.size());
+    std::size_t same = 0;
+    for (std::size_t i = 0; i < out.size(); ++i)
+      same += out[i].getVector3fMap() == ref[i].getVector3fMap() ? 1 : 0;
+    EXPECT_EQ(same, out.size());
+  }
 }
 
 TEST(Filter, FeatureRepresentativeLabelsAndUtmCoordinates)
@@ -560,8 +597,11 @@ TEST(Filter, ResultSaysWhetherTheTargetSizeWasReached)
   EXPECT_TRUE(f.getResult().summary.target_reached);
   EXPECT_EQ(f.getResult().summary.target_size, 1000u);
   EXPECT_NEAR(static_cast<double>(out.size()), 1000.0, 10.0);
-  // Three points are not within 1% of any size the search can reach: the closest size is given.
+  // Three points are not within 1% of any size the search can reach with the radius cap at its
+  // plain value (a cap that follows the target may grow until three balls cover the sphere): the
+  // closest size is given.
   f.setTargetSize(3);
+  f.setTargetRadiusCap(0.0);
   f.filter(out);
   EXPECT_FALSE(f.getResult().summary.target_reached);
   EXPECT_EQ(f.getResult().summary.output_points, out.size());

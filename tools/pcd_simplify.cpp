@@ -321,7 +321,8 @@ nlohmann::json statsJson(const Options& o, const CloudRun& run, const pcl::PCLPo
                  {"rough_balls", s.rough_balls},
                  {"merged_points", s.merged_points},
                  {"gap_points", s.gap_points},
-                 {"target_iterations", s.target_iterations}};
+                 {"target_iterations", s.target_iterations},
+                 {"cover_passes", s.cover_passes}};
   if (s.target_size > 0)
     j["target"] = {{"size", s.target_size}, {"reached", s.target_reached}, {"closest_size", s.output_points}};
   j["target_reached"] = s.target_reached;

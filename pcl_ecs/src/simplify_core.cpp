@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <list>
 #include <optional>
 #include <sstream>
 #include <utility>
@@ -183,6 +184,7 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
     s.max_gap = params.max_gap_factor * params.radius_cap_factor * s.neighborhood_radius;
     runCover(in, params, s.error_threshold, s.max_gap, out.cover, s.gap_points);
     s.target_iterations = 1;
+    s.cover_passes = 1;
   }
   else
   {
@@ -208,10 +210,50 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
     CoverOutput trial;
     // The fewest balls the current search reached, and how many of them closed gaps.
     std::size_t fewest = std::numeric_limits<std::size_t>::max(), fewest_gaps = 0;
+    // The last few covers before their gap points, with their T and cap: a search that only
+    // widens the gap bound, or comes back to a T it tried at this cap, reuses the cover and redoes
+    // only the gap bound (the same result as running it again).
+    struct CachedCover
+    {
+      double terr, cap;
+      CoverOutput cover;
+    };
+    std::list<CachedCover> covers;  // most recent first
+    constexpr std::size_t kCachedCovers = 3;
+    // Balls of the last cover below the radius cap: when they are fewer than the tolerance, a
+    // larger T cannot remove enough balls (every other ball is at the cap already).
+    std::size_t below_cap = 0;
+    // The count at saturation in the current search (cap and gap bound): the fewest balls of a
+    // cover whose balls are nearly all at the cap.
+    double floor_count = std::numeric_limits<double>::infinity();
     auto attempt = [&](double terr) {
       std::size_t gaps = 0;
-      const std::size_t balls = runCover(in, cover_params, terr, gap_factor * s.neighborhood_radius, trial, gaps);
+      auto hit = std::find_if(covers.begin(), covers.end(), [&](const CachedCover& c) {
+        return c.terr == terr && c.cap == cover_params.radius_cap_factor;
+      });
+      if (hit == covers.end())
+      {
+        if (covers.size() >= kCachedCovers)
+          covers.pop_back();
+        covers.push_front({terr, cover_params.radius_cap_factor, CoverOutput{}});
+        coverWithBalls(in, cover_params, terr, covers.front().cover);
+        ++s.cover_passes;
+      }
+      else
+        covers.splice(covers.begin(), covers, hit);
+      const CoverOutput& cached = covers.front().cover;
+      const double cap = cover_params.radius_cap_factor * s.neighborhood_radius;
+      below_cap = 0;
+      for (const CoverBall& b : cached.balls)
+        below_cap += b.radius < cap * (1.0 - 1e-9) ? 1 : 0;
+      trial = cached;
+      gaps = fillGaps(in, cover_params, terr, gap_factor * s.neighborhood_radius, trial);
+      const std::size_t balls = trial.balls.size();
       ++s.target_iterations;
+      // Nearly saturated (at most 5% of the balls, or the tolerance, below the cap): about the
+      // count the cap sets.
+      if (static_cast<double>(below_cap) < std::max(0.01 * target, 0.05 * static_cast<double>(balls)))
+        floor_count = std::min(floor_count, static_cast<double>(balls));
       if (balls < fewest)
       {
         fewest = balls;
@@ -234,12 +276,13 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
     // many balls is saturated too, and need not probe 4 T again.
     double saturated_cap = -1.0, saturated_terr = highest;
     const double tol = 0.01 * target;
-    // One search at the current cap: bracket T (×4 steps), then interpolate in log-log (the count
-    // falls about like a power of T) inside the bracket. A count that changes by less than the
-    // tolerance while T moves by 4× means the radius cap (or the point count), not T, sets it:
-    // this cap cannot do better.
+    // One search at the current cap and gap bound: bracket T, then solve inside the bracket. A
+    // count that changes by less than the tolerance while T moves by 4×, or a cover whose balls are
+    // all at the cap, means the radius cap (or the point count), not T, sets it: this cap cannot
+    // do better.
     auto search = [&]() {
       const double before = best_distance;
+      floor_count = std::numeric_limits<double>::infinity();
       fewest = std::numeric_limits<std::size_t>::max();
       // The first search starts at the user's T_err, a later one (wider gap or cap) at the best so far.
       const double start = std::isfinite(best_distance) ? s.error_threshold : params.error_threshold;
@@ -250,6 +293,13 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
         return best_distance < before;
       if (b_lo > balls_wanted && cover_params.radius_cap_factor == saturated_cap && lo >= saturated_terr)
         return best_distance < before;
+      if (b_lo > balls_wanted && static_cast<double>(below_cap) < tol)
+      {
+        // Saturated already: nearly every ball is at the cap, so a larger T changes nothing.
+        saturated_cap = cover_params.radius_cap_factor;
+        saturated_terr = lo;
+        return best_distance < before;
+      }
       if (b_lo > balls_wanted)
       {
         while (b_hi > balls_wanted && hi < highest && best_distance > tol)
@@ -258,11 +308,12 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
           b_lo = b_hi;
           hi = std::min(hi * 4.0, highest);
           b_hi = attempt(hi);
-          // Saturated: T × 4 removed fewer balls than the tolerance (every ball near the cap).
-          if (b_hi > b_lo - tol)
+          // Saturated: the balls below the cap are too few to matter, or T × 4 removed fewer
+          // balls than the tolerance (every ball near the cap).
+          if (b_hi > balls_wanted && (static_cast<double>(below_cap) < tol || b_hi > b_lo - tol))
           {
             saturated_cap = cover_params.radius_cap_factor;
-            saturated_terr = lo;
+            saturated_terr = static_cast<double>(below_cap) < tol ? hi : lo;
             return best_distance < before;
           }
         }
@@ -271,45 +322,101 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
       }
       else
       {
+        // Too few balls. Down by ×4 while the cover is saturated (every ball at the cap: the count
+        // stays put until T is small enough to shrink balls); then, from two trials, by the step
+        // their power law gives to the wanted count, passed by 30% to bracket it (1.5 to 16).
+        double t_prev = hi, b_prev = b_hi;
+        bool saturated = static_cast<double>(below_cap) < tol;
         while (b_lo < balls_wanted && lo > lowest && best_distance > tol)
         {
+          double factor = 4.0;
+          const double p = t_prev != lo && b_prev > 0.0 && b_lo > b_prev ? std::log(b_lo / b_prev) / std::log(t_prev / lo) : 0.0;
+          if (!saturated && p > 0.05)
+            factor = std::min(16.0, std::max(1.5, std::pow(balls_wanted / std::max(b_lo, 0.5), 1.3 / p)));
+          t_prev = lo;
+          b_prev = b_lo;
           hi = lo;
           b_hi = b_lo;
-          lo = std::max(lo / 4.0, lowest);
+          lo = std::max(lo / factor, lowest);
           b_lo = attempt(lo);
-          if (b_lo <= b_hi)
+          const bool was_saturated = saturated;
+          saturated = static_cast<double>(below_cap) < tol;
+          // A smaller T that adds no ball, with balls below the cap: T cannot add more.
+          if (b_lo <= b_hi && !(was_saturated || saturated))
             return best_distance < before;
         }
         if (b_lo < balls_wanted)
           return best_distance < before;
       }
-      // Regula falsi on f = log(count / wanted) against log T, with the Illinois rule (an end kept
-      // twice in a row has its f halved) so that both ends move.
-      double f_lo = std::log(std::max(b_lo, 0.5) / balls_wanted), f_hi = std::log(std::max(b_hi, 0.5) / balls_wanted);
-      int kept_side = 0;  // +1: lo was kept last time, -1: hi was
-      for (int it = 0; it < 40 && best_distance > tol && hi / lo > 1.0 + 1e-9; ++it)
+      // Brent's method on g = log((count - floor) / (wanted - floor)) against log T, inside the
+      // bracket: inverse quadratic interpolation where it behaves, bisection where it would not
+      // (the count is a step function and bends where balls reach the cap). The floor is the
+      // count the cap sets (the saturated count in this search, when below the wanted one; else
+      // 0): above it the count falls about like a power of T.
+      const double floor = floor_count < balls_wanted && floor_count <= b_hi ? std::max(0.0, floor_count - tol) : 0.0;
+      auto gOf = [&](double b) { return std::log(std::max(b - floor, 0.5) / (balls_wanted - floor)); };
+      double a = std::log(lo), fa = gOf(b_lo), b = std::log(hi), fb = gOf(b_hi);
+      double c = a, fc = fa, d = b - a, e = d;
+      const double x_tol = 1e-9;
+      for (int it = 0; it < 40 && best_distance > tol; ++it)
       {
-        double theta = f_lo > f_hi ? f_lo / (f_lo - f_hi) : 0.5;
-        theta = std::min(std::max(theta, 0.05), 0.95);
-        const double mid = lo * std::pow(hi / lo, theta);
-        const double b = attempt(mid);
-        const double f = std::log(std::max(b, 0.5) / balls_wanted);
-        if (b > balls_wanted)
+        if ((fb > 0.0) == (fc > 0.0))
         {
-          lo = mid;
-          f_lo = f;
-          if (kept_side == -1)
-            f_hi *= 0.5;
-          kept_side = -1;
+          c = a;
+          fc = fa;
+          d = e = b - a;
+        }
+        if (std::abs(fc) < std::abs(fb))
+        {
+          a = b;
+          b = c;
+          c = a;
+          fa = fb;
+          fb = fc;
+          fc = fa;
+        }
+        const double xm = 0.5 * (c - b);
+        if (std::abs(xm) <= x_tol || fb == 0.0)
+          break;
+        if (std::abs(e) >= x_tol && std::abs(fa) > std::abs(fb))
+        {
+          // Inverse quadratic interpolation (secant when only two points differ).
+          const double s = fb / fa;
+          double p, q;
+          if (a == c)
+          {
+            p = 2.0 * xm * s;
+            q = 1.0 - s;
+          }
+          else
+          {
+            const double qa = fa / fc, r = fb / fc;
+            p = s * (2.0 * xm * qa * (qa - r) - (b - a) * (r - 1.0));
+            q = (qa - 1.0) * (r - 1.0) * (s - 1.0);
+          }
+          if (p > 0.0)
+            q = -q;
+          p = std::abs(p);
+          if (2.0 * p < std::min(3.0 * xm * q - std::abs(x_tol * q), std::abs(e * q)))
+          {
+            e = d;
+            d = p / q;
+          }
+          else
+          {
+            d = xm;
+            e = d;
+          }
         }
         else
         {
-          hi = mid;
-          f_hi = f;
-          if (kept_side == 1)
-            f_lo *= 0.5;
-          kept_side = 1;
+          d = xm;
+          e = d;
         }
+        a = b;
+        fa = fb;
+        b += std::abs(d) > x_tol ? d : (xm > 0.0 ? x_tol : -x_tol);
+        fb = gOf(attempt(std::exp(b)));
       }
       return best_distance < before;
     };

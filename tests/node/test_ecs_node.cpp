@@ -662,7 +662,9 @@ TEST_F(NodeTest, BytesInFlightBoundTheMemoryOfManyProducers)
   }, 60.0)) << node.stderrText();
   const long peak_kib = statusKib(node.pid, "VmHWM:");
   std::printf("frames held at the peak: %ld KiB above the start\n", peak_kib - base_kib);
+#ifndef PCL_ECS_SANITIZED  // the sanitizers keep freed memory in quarantine: their RSS is not the node's
   EXPECT_LT(peak_kib - base_kib, 100L * 1024) << "peak " << peak_kib << " KiB, at start " << base_kib << " KiB";
+#endif
   EXPECT_EQ(node.stop(), 0);
   const auto s = node.summary();
   EXPECT_EQ(s[0], 24) << node.stderrText();

@@ -68,7 +68,8 @@ struct Summary
   double bbox_diagonal = 0;          ///< L
   double error_threshold = 0;        ///< T_err used (the one found, in target-size mode)
   double max_error = 0;              ///< largest E(r) over all balls
-  int target_iterations = 0;         ///< cover runs made by the target-size search
+  int target_iterations = 0;         ///< trials of the target-size search (T, cap, gap bound)
+  int cover_passes = 0;              ///< of those, the ones that ran the cover (others reused it)
   std::size_t target_size = 0;       ///< the size asked for (0: T_err mode)
   /// false when a target size was asked for and the output is not within 1% of it: the closest
   /// size the method reaches (every point a feature or its own ball, or the fewest balls the
