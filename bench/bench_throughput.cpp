@@ -5,6 +5,7 @@
 //   bench_throughput --mesh ../shared/data/bunny_mesh.ply --points 1000000 [--keep 0.10]
 //   bench_throughput --cloud ../shared/data/terrain_csite1_utm.pcd [--keep 0.10] [--repeat 3] [--json out.json]
 //   bench_throughput --mesh ../shared/data/bunny_mesh.ply --points 1000000 --save-input m.pcd  (the sample only)
+//   bench_throughput --cloud C.pcd --size N --peers-only --json out.json  (the peers at N points; bench/modes.py)
 #include "bench_common.h"
 #include "mesh_sampler.h"
 
@@ -47,6 +48,8 @@ int main(int argc, char** argv)
   double keep = 0.10;
   int threads = 0;
   int repeat = 3;  // timed runs per method: the least time is reported
+  std::size_t size = 0;     // the output size to calibrate every method to (0: keep × input)
+  bool peers_only = false;  // time the peers only (pcl_ecs is timed as a whole process elsewhere)
   std::string child_method;
   double child_param = 0.0;
   std::vector<std::string> input_args;  // what a child needs to rebuild the same input
@@ -67,6 +70,8 @@ int main(int argc, char** argv)
     else if (a == "--json") json_path = next();
     else if (a == "--repeat") repeat = std::max(1, std::stoi(next()));
     else if (a == "--save-input") save_path = next();
+    else if (a == "--size") size = std::stoull(next());
+    else if (a == "--peers-only") peers_only = true;
     else if (a == "--child")
     {
       child_method = next();
@@ -74,7 +79,8 @@ int main(int argc, char** argv)
     }
     else
     {
-      std::cerr << "usage: bench_throughput (--mesh M.ply [--points N] | --cloud C.pcd) [--keep R] [--threads T] [--repeat N] [--json F] [--save-input F.pcd]\n";
+      std::cerr << "usage: bench_throughput (--mesh M.ply [--points N] | --cloud C.pcd) [--keep R | --size N] "
+                   "[--peers-only] [--threads T] [--repeat N] [--json F] [--save-input F.pcd]\n";
       return 2;
     }
   }
@@ -152,9 +158,48 @@ int main(int argc, char** argv)
     return 0;
   }
 
-  const std::size_t target = static_cast<std::size_t>(std::llround(keep * n));
+  const std::size_t target = size > 0 ? size : static_cast<std::size_t>(std::llround(keep * n));
   std::printf("input: %s (%zu points), target %zu (%.0f%%), threads %d\n", source.c_str(), n,
               target, 100 * keep, pcl_ecs::resolveThreads(threads));
+
+  nlohmann::json j;
+  j["input"] = source;
+  j["points"] = n;
+  j["target"] = target;
+  j["threads"] = pcl_ecs::resolveThreads(threads);
+  j["repeat"] = repeat;
+  const double L_box = [&] {
+    Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e30f), hi = -lo;
+    for (const auto& p : *cloud)
+      if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+      {
+        lo = lo.cwiseMin(p.getVector3fMap());
+        hi = hi.cwiseMax(p.getVector3fMap());
+      }
+    return static_cast<double>((hi - lo).norm());
+  }();
+  auto time_peers = [&] {
+    const double leaf = searchParameter(L_box * 1e-5, L_box * 0.5, target, run_vg);
+    const Measure m_vg = bestOfChildren(repeat, input_args, "voxel_grid", leaf);
+    j["voxel_grid"] = {{"leaf", leaf}, {"size", m_vg.size}, {"seconds", m_vg.seconds},
+                       {"peak_extra_mib", m_vg.peak_extra_mib}};
+#ifdef PCL_ECS_BENCH_WITH_CGAL
+    const double csize = std::round(searchParameter(1.0, 1000.0, target, run_hierarchy, 20));
+    work.clear();
+    work.shrink_to_fit();
+    const Measure m_h = bestOfChildren(repeat, input_args, "cgal_hierarchy", csize);
+    j["cgal_hierarchy"] = {{"size_param", csize}, {"size", m_h.size}, {"seconds", m_h.seconds},
+                           {"peak_extra_mib", m_h.peak_extra_mib}};
+#endif
+  };
+  if (peers_only)
+  {
+    time_peers();
+    std::printf("%s\n", j.dump(2).c_str());
+    if (!json_path.empty())
+      std::ofstream(json_path) << j.dump(2) << "\n";
+    return 0;
+  }
 
   // Calibrate each method's parameter for the target size (untimed), then time one run of each
   // in a process of its own.
@@ -175,11 +220,6 @@ int main(int argc, char** argv)
   const double leaf = searchParameter(L * 1e-5, L * 0.5, target, run_vg);
   const Measure m_vg = bestOfChildren(repeat, input_args, "voxel_grid", leaf);
 
-  nlohmann::json j;
-  j["input"] = source;
-  j["points"] = n;
-  j["threads"] = pcl_ecs::resolveThreads(threads);
-  j["repeat"] = repeat;
   j["pcl_ecs"] = {{"terr", terr},          {"size", m_ecs.size},
                   {"seconds", m_ecs.seconds}, {"points_per_second", n / m_ecs.seconds},
                   {"peak_extra_mib", m_ecs.peak_extra_mib},

@@ -307,6 +307,12 @@ nlohmann::json statsJson(const Options& o, const CloudRun& run, const pcl::PCLPo
                      {"max_gap_factor", p.max_gap_factor},
                      {"target_gap_factor", p.target_gap_factor},
                      {"radius_cap_factor_used", s.radius_cap_factor},
+                     // the gap bound the run used, in radius caps (--max-gap): with the two other
+                     // "_used" values, the flags of a plain run that gives this output
+                     {"max_gap_factor_used",
+                      s.radius_cap_factor > 0.0 && s.neighborhood_radius > 0.0
+                          ? s.max_gap / (s.radius_cap_factor * s.neighborhood_radius)
+                          : p.max_gap_factor},
                      {"seed", p.seed},
                      {"threads", p.threads},
                      {"use_input_normals", p.use_input_normals},
