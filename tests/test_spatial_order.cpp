@@ -149,3 +149,54 @@ TEST(SpatialOrder, GridBitsGrowWithTheCount)
   EXPECT_EQ(pcl_ecs::spatialOrderBits((1u << 20) + 1), 13);
   EXPECT_EQ(pcl_ecs::spatialOrderBits(std::size_t{1} << 60), 21);
 }
+
+// Points that differ by rounding are the same point: with the tolerance for float coordinates of
+// the box (4 ulps of its largest coordinate), a point 1 ulp away on every axis is merged into the
+// first of its group, one 64 ulps away is not; exact duplicates still keep the smallest id.
+TEST(SpatialOrder, PointsWithinRoundingAreMergedOthersAreNot)
+{
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(100.0f, 200.0f);  // ulp(200f) = 1.5e-5
+  std::vector<Eigen::Vector3d> pos;
+  for (int i = 0; i < 20000; ++i)
+    pos.emplace_back(u(rng), u(rng), u(rng));
+  auto shifted = [](const Eigen::Vector3d& p, int ulps) {
+    Eigen::Vector3d q;
+    for (int a = 0; a < 3; ++a)
+    {
+      auto f = static_cast<float>(p[a]);
+      for (int k = 0; k < ulps; ++k)
+        f = std::nextafter(f, 1e9f);
+      q[a] = f;
+    }
+    return q;
+  };
+  for (int i = 0; i < 1000; ++i)
+    pos.push_back(shifted(pos[static_cast<std::size_t>(i)], 1));  // ids 20000..20999: merged
+  for (int i = 1000; i < 2000; ++i)
+    pos.push_back(shifted(pos[static_cast<std::size_t>(i)], 64));  // ids 21000..21999: kept
+  for (int i = 2000; i < 3000; ++i)
+    pos.push_back(pos[static_cast<std::size_t>(i)]);  // ids 22000..22999: exact, merged
+  const Eigen::Vector3d lo(100, 100, 100), hi(200, 200, 200);
+  const double eps = pcl_ecs::coincidenceTolerance(lo, hi, true, pos.size());
+  EXPECT_DOUBLE_EQ(eps, 4.0 * (std::nextafter(200.0f, 1e9f) - 200.0f));
+  EXPECT_LT(pcl_ecs::coincidenceTolerance(lo, hi, false, pos.size()), 1e-12);
+  std::vector<int> ids(pos.size());
+  for (std::size_t i = 0; i < ids.size(); ++i)
+    ids[i] = static_cast<int>(i);
+  auto position = [&](int id) { return pos[static_cast<std::size_t>(id)]; };
+  std::vector<std::uint64_t> codes;
+  pcl_ecs::sortBySpatialCode(ids, position, lo, hi, 1, &codes);
+  const auto merged = pcl_ecs::removeCoincident(ids, codes, position, eps);
+  std::size_t near = 0, exact = 0, wrong = 0;
+  for (const auto& [gone, kept] : merged)
+  {
+    near += gone >= 20000 && gone < 21000 && kept == gone - 20000 ? 1 : 0;
+    exact += gone >= 22000 && kept == gone - 20000 ? 1 : 0;
+    wrong += (gone >= 21000 && gone < 22000) || gone < 20000 ? 1 : 0;
+  }
+  EXPECT_GE(near, 990u) << "a pair straddling a cell border may stay apart, rarely";
+  EXPECT_EQ(exact, 1000u);
+  EXPECT_EQ(wrong, 0u);
+  EXPECT_EQ(ids.size() + merged.size(), pos.size());
+}

@@ -4,6 +4,7 @@
 #include "radix_sort.h"
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <utility>
 
@@ -117,6 +118,27 @@ void spatialCodes(const Eigen::Vector3d* points, std::size_t count, const Eigen:
     encodeBatch(at, first, std::min<std::size_t>(kLanes, count - first), lo, extent, bits, codes + first);
 }
 
+double coincidenceTolerance(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, bool float_coordinates,
+                            std::size_t count)
+{
+  const double largest = std::max(lo.cwiseAbs().maxCoeff(), hi.cwiseAbs().maxCoeff());
+  if (!std::isfinite(largest) || count < 2)
+    return 0.0;
+  double ulps;
+  if (float_coordinates)
+  {
+    const auto f = static_cast<float>(largest);
+    ulps = 4.0 * static_cast<double>(std::nextafter(f, std::numeric_limits<float>::infinity()) - f);
+  }
+  else
+    ulps = 4.0 * (std::nextafter(largest, std::numeric_limits<double>::infinity()) - largest);
+  // Never more than 1% of the typical spacing (a surface of `count` points in the box): where the
+  // coordinates' precision is what spaces the points (float UTM: 0.25 m), nearby points are
+  // measurements, not copies.
+  const double spacing = (hi - lo).norm() / std::sqrt(static_cast<double>(count));
+  return std::min(ulps, 0.01 * spacing);
+}
+
 int spatialOrderBits(std::size_t count)
 {
   int bits = 2;
@@ -165,11 +187,12 @@ void sortBySpatialCode(std::vector<int>& ids, const std::function<Eigen::Vector3
 }
 
 std::vector<std::pair<int, int>> removeCoincident(std::vector<int>& ids, const std::vector<std::uint64_t>& codes,
-                                                  const std::function<Eigen::Vector3d(int)>& position)
+                                                  const std::function<Eigen::Vector3d(int)>& position, double epsilon)
 {
   // Coincident points share a cell, so they lie in one run of equal codes; within a run (a few
   // points, or many where a sensor wrote thousands of points at one spot) the run is ordered by
-  // position, then id, and every point equal to the one before it goes to that group's first.
+  // position, then id, and every point within epsilon (on each axis) of its group's first goes to
+  // that first.
   std::vector<std::pair<int, int>> merged;
   std::vector<char> drop(ids.size(), 0);
   std::vector<std::size_t> run;
@@ -197,7 +220,7 @@ std::vector<std::pair<int, int>> removeCoincident(std::vector<int>& ids, const s
       });
       for (std::size_t k = 1, first = 0; k < run.size(); ++k)
       {
-        if (p[run[k] - a] == p[run[first] - a])
+        if ((p[run[k] - a] - p[run[first] - a]).cwiseAbs().maxCoeff() <= epsilon)
         {
           drop[run[k]] = 1;
           merged.emplace_back(ids[run[k]], ids[run[first]]);

@@ -1,5 +1,7 @@
 #include "cloud_simplify.h"
 
+#include <pcl_ecs/spatial_order.h>
+
 #include <pcl_ecs/feature_aware_cover_simplify.h>
 #include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/pcd_stream.h>
@@ -52,16 +54,27 @@ Eigen::Vector3d coordinateShift(const pcl::PCLPointCloud2& cloud)
 
 std::size_t distinctFinitePoints(const pcl::PCLPointCloud2& cloud)
 {
-  // The points as the filter will see them, so that "distinct" means what its merge means.
+  // The points as the filter will see them, merged by the filter's own rule (spatial_order.h),
+  // so that "distinct" means what its merge means.
   pcl::PointCloud<pcl::PointXYZ> xyz;
   io::fromCloud(cloud, xyz, coordinateShift(cloud));
-  std::vector<std::array<float, 3>> p;
-  p.reserve(xyz.size());
-  for (const auto& q : xyz)
-    if (std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z))
-      p.push_back({q.x, q.y, q.z});
-  std::sort(p.begin(), p.end());
-  return static_cast<std::size_t>(std::unique(p.begin(), p.end()) - p.begin());
+  std::vector<int> ids;
+  ids.reserve(xyz.size());
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (std::size_t i = 0; i < xyz.size(); ++i)
+    if (std::isfinite(xyz[i].x) && std::isfinite(xyz[i].y) && std::isfinite(xyz[i].z))
+    {
+      ids.push_back(static_cast<int>(i));
+      lo = lo.cwiseMin(xyz[i].getVector3fMap().cast<double>());
+      hi = hi.cwiseMax(xyz[i].getVector3fMap().cast<double>());
+    }
+  if (ids.size() < 2)
+    return ids.size();
+  const auto position = [&](int i) { return Eigen::Vector3d(xyz[i].getVector3fMap().cast<double>()); };
+  std::vector<std::uint64_t> codes;
+  sortBySpatialCode(ids, position, lo, hi, 1, &codes);
+  removeCoincident(ids, codes, position, coincidenceTolerance(lo, hi, true, ids.size()));
+  return ids.size();
 }
 
 CloudRun simplifyCloud(const pcl::PCLPointCloud2& input, const Parameters& given, const CloudRunOptions& options)

@@ -42,10 +42,21 @@ void sortBySpatialCode(std::vector<int>& ids, const std::function<Eigen::Vector3
                        std::vector<std::uint64_t>* codes = nullptr);
 
 /** \brief Remove from `ids` (sorted by sortBySpatialCode, whose `codes` are given) every id whose
- * position equals, exactly, that of another id; one of each group stays: the smallest id. Returns
- * the pairs (removed id, id that stays). Linear in the ids plus n log n within the runs of equal
- * codes (the same cell), whatever the number of coincident points. */
+ * position is that of another id to within `epsilon` on each axis (0: exactly equal), among the
+ * ids of its cell; one of each group stays: with epsilon 0 the smallest id, otherwise the first
+ * by position (x, then y, then z, then id). Returns the pairs (removed id, id that stays).
+ * Linear in the ids plus n log n within the runs of equal codes (the same cell), whatever the
+ * number of coincident points. */
 std::vector<std::pair<int, int>> removeCoincident(std::vector<int>& ids, const std::vector<std::uint64_t>& codes,
-                                                  const std::function<Eigen::Vector3d(int)>& position);
+                                                  const std::function<Eigen::Vector3d(int)>& position,
+                                                  double epsilon = 0.0);
+
+/** \brief The distance below which two of `count` points in [lo, hi] count as the same point:
+ * 4 units in the last place of the largest coordinate, in float or double as the coordinates are
+ * stored (points that differ by rounding: a re-export, a transform, a merge of scans), but never
+ * more than 1% of the typical spacing |hi - lo| / sqrt(count) (where the precision itself spaces
+ * the points, as in float UTM coordinates, points further apart are measurements, not copies). */
+double coincidenceTolerance(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, bool float_coordinates,
+                            std::size_t count);
 
 }  // namespace pcl_ecs

@@ -1224,8 +1224,8 @@ TileData Runner::loadTile(int t) const
     }
     radixSortThenTies(keys, [](const Key& k) { return k.code; },
                       [](const Key& a, const Key& b) { return a.gid < b.gid; });
-    // Coincident points, as in the filter: one of each group (the smallest input index) stands for
-    // it, the others are not loaded. A group has one position, so every tile that holds it, as
+    // Coincident points (to the rounding of the input's coordinates), as in the filter: one of each
+    // group stands for it, the others are not loaded. A group has one position, so every tile that holds it, as
     // its own or in its halo, holds all of it and keeps the same point.
     std::vector<int> ids(n);
     std::vector<std::uint64_t> sorted_codes(n);
@@ -1234,7 +1234,10 @@ TileData Runner::loadTile(int t) const
       ids[o] = static_cast<int>(o);
       sorted_codes[o] = keys[o].code;
     }
-    removeCoincident(ids, sorted_codes, [&](int o) { return pos[keys[static_cast<std::size_t>(o)].at]; });
+    const int fx = header_.fieldIndex("x");
+    const bool float_xyz = fx >= 0 && header_.fields[static_cast<std::size_t>(fx)].datatype != pcl::PCLPointField::FLOAT64;
+    removeCoincident(ids, sorted_codes, [&](int o) { return pos[keys[static_cast<std::size_t>(o)].at]; },
+                     coincidenceTolerance(plan_.lo, plan_.hi, float_xyz, plan_.finite_points));
     d.order.resize(ids.size());
     for (std::size_t o = 0; o < ids.size(); ++o)
       d.order[o] = keys[static_cast<std::size_t>(ids[o])].at;

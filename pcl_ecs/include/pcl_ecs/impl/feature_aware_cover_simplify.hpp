@@ -122,12 +122,13 @@ void FeatureAwareCoverSimplify<PointT>::applyFilter(PointCloud& output)
     };
     std::vector<std::uint64_t> codes;
     sortBySpatialCode(used, position, lo, hi, resolveThreads(params_.threads), &codes);
-    // Coincident points (merged scans, re-exports, sensors' missing returns at one spot) would
-    // give zero distances to eq. 1's weights and eq. 5's density: one point of each group stands
-    // for all of it; the others map to its output point. The order is then the one the cloud
-    // without them would have.
+    // Coincident points (merged scans, re-exports, sensors' missing returns at one spot), exactly
+    // or to float rounding, would give zero distances to eq. 1's weights and eq. 5's density: one
+    // point of each group stands for all of it; the others map to its output point. The order is
+    // then the one the cloud without them would have.
     const std::size_t before_merge = used.size();
-    const std::vector<std::pair<int, int>> merged = removeCoincident(used, codes, position);
+    const std::vector<std::pair<int, int>> merged =
+        removeCoincident(used, codes, position, coincidenceTolerance(lo, hi, true, used.size()));
     if (!merged.empty() && spatialOrderBits(used.size()) != spatialOrderBits(before_merge))
       sortBySpatialCode(used, position, lo, hi, resolveThreads(params_.threads));
     if (!merged.empty() && used.size() <= static_cast<std::size_t>(params_.k_neighbors))
