@@ -572,7 +572,13 @@ TEST_F(NodeTest, SigtermWithAConsumerThatNeverReads)
     }
     ::close(fd);
   });
+  // Long enough for the outputs to fill the consumer's buffers (the sanitizers run the filter
+  // several times slower).
+#ifdef PCL_ECS_SANITIZED
+  std::this_thread::sleep_for(std::chrono::milliseconds(6000));
+#else
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+#endif
   const auto t0 = std::chrono::steady_clock::now();
   const int code = node.stop();
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
