@@ -178,19 +178,27 @@ int main(int argc, char** argv)
       }
     return static_cast<double>((hi - lo).norm());
   }();
+  // The peers at the target size: each one's parameter calibrated (untimed), then the best of
+  // `repeat` runs, each in a process of its own. Into `j`; returned for the printout.
+  struct PeerTimes
+  {
+    Measure vg, h;
+  };
   auto time_peers = [&] {
+    PeerTimes p;
     const double leaf = searchParameter(L_box * 1e-5, L_box * 0.5, target, run_vg);
-    const Measure m_vg = bestOfChildren(repeat, input_args, "voxel_grid", leaf);
-    j["voxel_grid"] = {{"leaf", leaf}, {"size", m_vg.size}, {"seconds", m_vg.seconds},
-                       {"peak_extra_mib", m_vg.peak_extra_mib}};
+    p.vg = bestOfChildren(repeat, input_args, "voxel_grid", leaf);
+    j["voxel_grid"] = {{"leaf", leaf}, {"size", p.vg.size}, {"seconds", p.vg.seconds},
+                       {"peak_extra_mib", p.vg.peak_extra_mib}};
 #ifdef PCL_ECS_BENCH_WITH_CGAL
     const double csize = std::round(searchParameter(1.0, 1000.0, target, run_hierarchy, 20));
     work.clear();
     work.shrink_to_fit();
-    const Measure m_h = bestOfChildren(repeat, input_args, "cgal_hierarchy", csize);
-    j["cgal_hierarchy"] = {{"size_param", csize}, {"size", m_h.size}, {"seconds", m_h.seconds},
-                           {"peak_extra_mib", m_h.peak_extra_mib}};
+    p.h = bestOfChildren(repeat, input_args, "cgal_hierarchy", csize);
+    j["cgal_hierarchy"] = {{"size_param", csize}, {"size", p.h.size}, {"seconds", p.h.seconds},
+                           {"peak_extra_mib", p.h.peak_extra_mib}};
 #endif
+    return p;
   };
   if (peers_only)
   {
@@ -206,7 +214,6 @@ int main(int argc, char** argv)
   ecs.setTargetSize(target);
   ecs.filter(out);
   const double terr = ecs.getResult().summary.error_threshold;
-  const double L = ecs.getResult().summary.bbox_diagonal;
   const Measure m_ecs = bestOfChildren(repeat, input_args, "pcl_ecs", terr);
   // Stage timings of the same run, in this process: each stage's least time over the repeats.
   run_ecs(terr);
@@ -217,8 +224,8 @@ int main(int argc, char** argv)
     run_ecs(terr);
     keepLeastStageTimes(t, ecs.getResult().summary.timings);
   }
-  const double leaf = searchParameter(L * 1e-5, L * 0.5, target, run_vg);
-  const Measure m_vg = bestOfChildren(repeat, input_args, "voxel_grid", leaf);
+  const PeerTimes peers = time_peers();
+  const Measure& m_vg = peers.vg;
 
   j["pcl_ecs"] = {{"terr", terr},          {"size", m_ecs.size},
                   {"seconds", m_ecs.seconds}, {"points_per_second", n / m_ecs.seconds},
@@ -227,8 +234,6 @@ int main(int argc, char** argv)
                   {"stages_s", {{"preparation", t.preparation}, {"neighbors", t.neighbors}, {"normals", t.normals},
                                 {"weights", t.weights}, {"features", t.features}, {"density", t.density},
                                 {"curvature", t.curvature}, {"cover", t.cover}, {"output", t.output}}}};
-  j["voxel_grid"] = {{"leaf", leaf}, {"size", m_vg.size}, {"seconds", m_vg.seconds},
-                     {"peak_extra_mib", m_vg.peak_extra_mib}};
   std::printf("%-28s %9s %9s %12s %10s\n", "method", "size", "time s", "points/s", "peak MiB");
   std::printf("%-28s %9zu %9.3f %12.0f %10.1f\n", "pcl_ecs", m_ecs.size, m_ecs.seconds, n / m_ecs.seconds, m_ecs.peak_extra_mib);
   std::printf("  stages (s): neighbours %.3f normals %.3f weights %.3f features %.3f density %.3f curvature %.3f cover %.3f output %.3f\n",
@@ -237,12 +242,7 @@ int main(int argc, char** argv)
               m_vg.seconds, n / m_vg.seconds, m_vg.peak_extra_mib, m_ecs.seconds / m_vg.seconds);
 
 #ifdef PCL_ECS_BENCH_WITH_CGAL
-  const double csize = std::round(searchParameter(1.0, 1000.0, target, run_hierarchy, 20));
-  work.clear();
-  work.shrink_to_fit();
-  const Measure m_h = bestOfChildren(repeat, input_args, "cgal_hierarchy", csize);
-  j["cgal_hierarchy"] = {{"size_param", csize}, {"size", m_h.size}, {"seconds", m_h.seconds},
-                         {"peak_extra_mib", m_h.peak_extra_mib}};
+  const Measure& m_h = peers.h;
   std::printf("%-28s %9zu %9.3f %12.0f %10.1f  (pcl_ecs time / this: %.1fx)\n", "CGAL hierarchy_simplify", m_h.size,
               m_h.seconds, n / m_h.seconds, m_h.peak_extra_mib, m_ecs.seconds / m_h.seconds);
 #endif
