@@ -829,10 +829,17 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
   // Neighbourhood size from the sample: the j-th sample neighbour at distance r_j means the K-th
   // neighbour of the full cloud at about r_j sqrt(K f / j) (a surface: counts grow with r²).
   const int threads = resolveThreads(params_.threads);
-  // The sample in Hilbert order behind the box tree (built in one parallel pass); the queries
+  // At most kSpacingSample points of the sample serve this estimate: a sparser one gives the same
+  // through the scaling below, for a fraction of the search (every `every`-th, in input order).
+  constexpr std::size_t kSpacingSample = 200000;
+  const std::size_t every = (sample.size() + kSpacingSample - 1) / kSpacingSample;
+  const double spacing_fraction = fraction / static_cast<double>(every);
+  // That sample in Hilbert order behind the box tree (built in one parallel pass); the queries
   // below return distances only, which do not depend on the order or the back end.
-  std::vector<int> morton(sample.size());
-  std::iota(morton.begin(), morton.end(), 0);
+  std::vector<int> morton;
+  morton.reserve(sample.size() / every + 1);
+  for (std::size_t i = 0; i < sample.size(); i += every)
+    morton.push_back(static_cast<int>(i));
   std::vector<std::uint64_t> codes;
   const auto sample_at = [&](int i) { return sample[static_cast<std::size_t>(i)]; };
   sortBySpatialCode(morton, sample_at, lo, hi, threads, &codes);
@@ -856,10 +863,12 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
             std::to_string(k) + " needs more");
   BoxTreeSearch tree(false, threads);
   tree.setInputCloud(local);
-  const int j = fraction >= 1.0 ? k : std::min<int>(8, static_cast<int>(morton.size()) - 1);
-  const double scale = fraction >= 1.0 ? 1.0 : std::sqrt(static_cast<double>(k) * fraction / j);
-  // Every stride-th sample point is asked (at most ~100k queries).
-  const std::size_t stride = std::max<std::size_t>(1, sample.size() / 100000);
+  const int j = spacing_fraction >= 1.0 ? k : std::min<int>(8, static_cast<int>(morton.size()) - 1);
+  const double scale = spacing_fraction >= 1.0 ? 1.0 : std::sqrt(static_cast<double>(k) * spacing_fraction / j);
+  // Every stride-th point of that sample is asked (at most ~25k queries: enough for the mean and
+  // the 99.9th percentile below).
+  const std::size_t spaced = (sample.size() + every - 1) / every;
+  const std::size_t stride = std::max<std::size_t>(1, spaced / 25000) * every;
   std::vector<double> rk((sample.size() + stride - 1) / stride);
 #pragma omp parallel num_threads(threads)
   {
