@@ -97,12 +97,6 @@ ByteBudget::Reservation ByteBudget::acquire(std::uint64_t bytes, const volatile 
   return Reservation(this, bytes);
 }
 
-std::uint64_t ByteBudget::inUse()
-{
-  std::lock_guard<std::mutex> lock(m_);
-  return used_;
-}
-
 void ByteBudget::release(std::uint64_t bytes)
 {
   std::lock_guard<std::mutex> lock(m_);

@@ -98,8 +98,6 @@ public:
   /** \brief Wait until `bytes` fit, then take them. Empty (nothing taken) when `stop` became set
    * first, or when `bytes` exceeds the whole limit. `stop` is polled every 100 ms. */
   Reservation acquire(std::uint64_t bytes, const volatile bool* stop = nullptr);
-  std::uint64_t limit() const { return limit_; }
-  std::uint64_t inUse();
 
 private:
   void release(std::uint64_t bytes);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdio>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
@@ -86,6 +87,19 @@ std::uint32_t addField(pcl::PCLPointCloud2& cloud, const std::string& name, std:
   cloud.fields.push_back(f);
   cloud.point_step += static_cast<std::uint32_t>(datatypeSize(datatype) * count);
   return f.offset;
+}
+
+bool readHeaderLine(std::istream& in, std::string& line)
+{
+  line.clear();
+  int c;
+  while ((c = in.get()) != EOF && c != '\n')
+  {
+    line.push_back(static_cast<char>(c));
+    if (line.size() > kMaxHeaderLine)
+      return true;
+  }
+  return !(c == EOF && line.empty());
 }
 
 std::string quote(const std::string& text)

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <cstring>
+#include <istream>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -19,6 +20,11 @@ namespace detail
 
 /// The longest header line a reader accepts: a longer one is refused without being read whole.
 constexpr std::size_t kMaxHeaderLine = 64u << 10;
+
+/// Read one header line from `in` into `line` (without its '\n'): at most kMaxHeaderLine + 1
+/// characters are kept and the rest of a longer line is not read (the caller refuses it). False at
+/// the end of the stream with nothing read.
+bool readHeaderLine(std::istream& in, std::string& line);
 
 /// Size in bytes of a PCLPointField datatype (0 for an unknown one).
 inline std::size_t datatypeSize(std::uint8_t datatype)

@@ -171,20 +171,10 @@ PcdStreamReader::PcdStreamReader(const std::string& path) : path_(path)
   {
     header_ = parsePcdHeader(
         [&](std::string& line) {
-          // At most kMaxHeaderLine + 1 characters are kept of a line (the parser refuses a longer
-          // one), and its rest is not read.
-          line.clear();
-          int c;
-          while ((c = in_.get()) != EOF && c != '\n')
-          {
-            line.push_back(static_cast<char>(c));
-            if (line.size() > detail::kMaxHeaderLine)
-              return any = true;
-          }
-          if (c == EOF && line.empty())
+          if (!detail::readHeaderLine(in_, line))
             return false;
           any = true;
-          consumed += line.size() + 1;
+          consumed += line.size() + 1;  // an over-long line is refused by the parser
           return true;
         },
         kMaxStreamPoints);

@@ -373,18 +373,10 @@ CloudProbe probePly(std::istream& in, std::uint64_t file_size)
 {
   // The header's lines only (at most 10000 of at most kMaxHeaderLine bytes each), never the body.
   std::string header, line;
-  for (int n = 0; n < 10001; ++n)
+  for (int n = 0; n < 10001 && detail::readHeaderLine(in, line); ++n)
   {
-    line.clear();
-    char c = 0;
-    while (in.get(c) && c != '\n')
-    {
-      line += c;
-      if (line.size() > detail::kMaxHeaderLine)
-        fail("header line ", n + 1, " is longer than ", detail::kMaxHeaderLine / 1024, " KiB: not a PLY header");
-    }
-    if (!in && line.empty())
-      break;
+    if (line.size() > detail::kMaxHeaderLine)
+      fail("header line ", n + 1, " is longer than ", detail::kMaxHeaderLine / 1024, " KiB: not a PLY header");
     header += line;
     header += '\n';
     if (words(line) == std::vector<std::string>{"end_header"})
