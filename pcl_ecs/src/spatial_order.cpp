@@ -139,6 +139,21 @@ double coincidenceTolerance(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi
   return std::min(ulps, 0.01 * spacing);
 }
 
+std::vector<std::pair<int, int>> sortAndMergeCoincident(std::vector<int>& ids,
+                                                        const std::function<Eigen::Vector3d(int)>& position,
+                                                        const Eigen::Vector3d& lo, const Eigen::Vector3d& hi,
+                                                        int threads)
+{
+  std::vector<std::uint64_t> codes;
+  sortBySpatialCode(ids, position, lo, hi, threads, &codes);
+  const std::size_t before = ids.size();
+  std::vector<std::pair<int, int>> merged =
+      removeCoincident(ids, codes, position, coincidenceTolerance(lo, hi, true, before));
+  if (!merged.empty() && spatialOrderBits(ids.size()) != spatialOrderBits(before))
+    sortBySpatialCode(ids, position, lo, hi, threads);
+  return merged;
+}
+
 int spatialOrderBits(std::size_t count)
 {
   int bits = 2;

@@ -18,6 +18,7 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <pcl/common/common.h>
 #include <pcl/conversions.h>
 #include <pcl/point_types.h>
 
@@ -334,13 +335,9 @@ TEST_F(StreamCli, ExtremeScalesGiveTheUnitScaleResult)
     }
     return c;
   };
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
-  for (const auto& p : bunny)
-  {
-    lo = lo.cwiseMin(p.getVector3fMap().cast<double>());
-    hi = hi.cwiseMax(p.getVector3fMap().cast<double>());
-  }
-  const double diagonal = (hi - lo).norm();
+  pcl::PointXYZ lo, hi;
+  pcl::getMinMax3D(bunny, lo, hi);
+  const double diagonal = (hi.getVector3fMap() - lo.getVector3fMap()).cast<double>().norm();
   write_scaled(1.0, "unit.pcd");
   const auto unit = simplified("unit.pcd");
   ASSERT_GT(unit.size(), 1000u);

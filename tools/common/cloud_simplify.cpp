@@ -70,10 +70,7 @@ std::size_t distinctFinitePoints(const pcl::PCLPointCloud2& cloud)
     }
   if (ids.size() < 2)
     return ids.size();
-  const auto position = [&](int i) { return Eigen::Vector3d(xyz[i].getVector3fMap().cast<double>()); };
-  std::vector<std::uint64_t> codes;
-  sortBySpatialCode(ids, position, lo, hi, 1, &codes);
-  removeCoincident(ids, codes, position, coincidenceTolerance(lo, hi, true, ids.size()));
+  sortAndMergeCoincident(ids, [&](int i) { return Eigen::Vector3d(xyz[i].getVector3fMap().cast<double>()); }, lo, hi);
   return ids.size();
 }
 

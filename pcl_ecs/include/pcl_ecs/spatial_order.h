@@ -51,6 +51,15 @@ std::vector<std::pair<int, int>> removeCoincident(std::vector<int>& ids, const s
                                                   const std::function<Eigen::Vector3d(int)>& position,
                                                   double epsilon = 0.0);
 
+/** \brief Sort `ids` (points of float coordinates in [lo, hi]) by sortBySpatialCode and remove
+ * the coincident ones (removeCoincident with coincidenceTolerance): the order is then the one the
+ * cloud without them would have (sorted again when fewer points call for a coarser grid). Returns
+ * the pairs (removed id, id that stays). What the filter does first; also counts distinct points. */
+std::vector<std::pair<int, int>> sortAndMergeCoincident(std::vector<int>& ids,
+                                                        const std::function<Eigen::Vector3d(int)>& position,
+                                                        const Eigen::Vector3d& lo, const Eigen::Vector3d& hi,
+                                                        int threads = 1);
+
 /** \brief The distance below which two of `count` points in [lo, hi] count as the same point:
  * 4 units in the last place of the largest coordinate, in float or double as the coordinates are
  * stored (points that differ by rounding: a re-export, a transform, a merge of scans), but never

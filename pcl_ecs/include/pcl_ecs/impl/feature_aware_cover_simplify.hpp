@@ -120,17 +120,12 @@ void FeatureAwareCoverSimplify<PointT>::applyFilter(PointCloud& output)
       const PointT& p = (*input_)[idx];
       return Eigen::Vector3d(p.x, p.y, p.z);
     };
-    std::vector<std::uint64_t> codes;
-    sortBySpatialCode(used, position, lo, hi, resolveThreads(params_.threads), &codes);
     // Coincident points (merged scans, re-exports, sensors' missing returns at one spot), exactly
     // or to float rounding, would give zero distances to eq. 1's weights and eq. 5's density: one
-    // point of each group stands for all of it; the others map to its output point. The order is
-    // then the one the cloud without them would have.
+    // point of each group stands for all of it; the others map to its output point.
     const std::size_t before_merge = used.size();
     const std::vector<std::pair<int, int>> merged =
-        removeCoincident(used, codes, position, coincidenceTolerance(lo, hi, true, used.size()));
-    if (!merged.empty() && spatialOrderBits(used.size()) != spatialOrderBits(before_merge))
-      sortBySpatialCode(used, position, lo, hi, resolveThreads(params_.threads));
+        sortAndMergeCoincident(used, position, lo, hi, resolveThreads(params_.threads));
     if (!merged.empty() && used.size() <= static_cast<std::size_t>(params_.k_neighbors))
       return fail("only " + std::to_string(used.size()) + " distinct finite points (" + std::to_string(merged.size()) +
                   " more at the same places); the neighbourhood size K = " + std::to_string(params_.k_neighbors) +
