@@ -291,6 +291,11 @@ void parsePly(const std::string& bytes, pcl::PCLPointCloud2& cloud)
     if (std::none_of(cloud.fields.begin(), cloud.fields.end(), [&](const pcl::PCLPointField& f) { return f.name == axis; }))
       fail("the vertex element has no '", axis, "' property");
   std::uint32_t rgb_offset = 0;
+  // The colour channels become one packed field: a property of that name as well is ambiguous.
+  if (has_colour && std::any_of(cloud.fields.begin(), cloud.fields.end(), [&](const pcl::PCLPointField& f) {
+        return f.name == (has_alpha ? "rgba" : "rgb");
+      }))
+    fail("the vertex element has colour channels and a property ", has_alpha ? "rgba" : "rgb", " as well");
   if (has_colour)
     rgb_offset = detail::addField(cloud, has_alpha ? "rgba" : "rgb",
                                   has_alpha ? pcl::PCLPointField::UINT32 : pcl::PCLPointField::FLOAT32);
