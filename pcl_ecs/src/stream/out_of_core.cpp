@@ -679,6 +679,14 @@ private:
                                    kConcurrentTiles * kMinTilePoints * tileBytesPerPoint(step) / 0.7);
     return baseline_bytes_ + static_cast<std::uint64_t>(usable);
   }
+  /// The limit a refusal suggests, in MiB: `needed` and 8 MiB more, rounded up to 8 MiB. The
+  /// process's own size at the start varies by a MiB or so from run to run (page faults in its
+  /// libraries), so a suggestion of exactly `needed` could be refused on the next run.
+  static std::string suggestedLimit(std::uint64_t needed)
+  {
+    constexpr std::uint64_t kStep = 8ull << 20;
+    return std::to_string((needed + kStep + kStep - 1) / kStep * (kStep >> 20)) + "M";
+  }
   void scanAndPlan(io::PcdStreamReader& reader);
   /// A binary regular file is read again by the split; anything else is copied to scratch once.
   bool readTwice() const
@@ -950,7 +958,7 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
     throw LimitError("--memory-limit " + std::to_string(memory_limit_ >> 20) +
                      "M is below what this input needs: its halo (" + std::to_string(plan_.halo) +
                      ", from its spacing) puts about " + std::to_string(static_cast<std::uint64_t>(worst)) +
-                     " points in a tile; at least " + std::to_string((limit + (1u << 20) - 1) >> 20) + "M");
+                     " points in a tile; use at least " + suggestedLimit(limit));
   }
   summary_.stage_seconds[0] = secondsSince(t0);
   std::ostringstream os;
@@ -1851,8 +1859,8 @@ StreamSummary Runner::run()
   baseline_bytes_ = residentBytes();
   const std::uint64_t needed = minimumLimit(header_.point_step);
   if (memory_limit_ < needed && options_.max_tile_points == 0)
-    throw LimitError("--memory-limit " + std::to_string(memory_limit_ >> 20) + "M is below what this run needs: at least " +
-            std::to_string((needed + (1u << 20) - 1) >> 20) + "M (the process itself holds " +
+    throw LimitError("--memory-limit " + std::to_string(memory_limit_ >> 20) + "M is below what this run needs: use at least " +
+            suggestedLimit(needed) + " (the process itself holds " +
             std::to_string(baseline_bytes_ >> 20) + "M before it starts; two tiles of " +
             std::to_string(kMinTilePoints) + " points and the planning sample need the rest)");
   (void)io::XyzAccess(header_);
