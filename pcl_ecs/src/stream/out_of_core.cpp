@@ -719,7 +719,11 @@ private:
   int tile_threads_ = 1;  // threads inside one tile (set by runStage for each batch of tiles)
   int threads_ = 1;       // all the run's threads
   std::uint64_t memory_limit_ = 0;
-  std::uint64_t baseline_bytes_ = 0;  ///< resident set when the run started
+  /// What the process holds before the run, as the plan counts it: its resident set at the start
+  /// rounded up to a multiple of 16 MiB. The resident set varies by about a MiB from run to run
+  /// (page faults in its libraries) and the plan (sample, tile size, halo) follows the memory it
+  /// may use, so the rounding keeps one input, one limit and one seed to one plan and one output.
+  std::uint64_t baseline_bytes_ = 0;
   /// The input as the scan read it: where a binary input's records start, its size and time.
   std::uint64_t data_offset_ = 0;
   FileStamp input_stamp_;
@@ -1856,12 +1860,13 @@ StreamSummary Runner::run()
   header_ = reader.header();
   input_stamp_ = stampOf(input_);
   // The limit is a promise: refused at once when this process cannot keep to it.
-  baseline_bytes_ = residentBytes();
+  constexpr std::uint64_t kBaselineStep = 16ull << 20;
+  baseline_bytes_ = (residentBytes() + kBaselineStep - 1) / kBaselineStep * kBaselineStep;
   const std::uint64_t needed = minimumLimit(header_.point_step);
   if (memory_limit_ < needed && options_.max_tile_points == 0)
     throw LimitError("--memory-limit " + std::to_string(memory_limit_ >> 20) + "M is below what this run needs: use at least " +
-            suggestedLimit(needed) + " (the process itself holds " +
-            std::to_string(baseline_bytes_ >> 20) + "M before it starts; two tiles of " +
+            suggestedLimit(needed) + " (the process itself counts as " +
+            std::to_string(baseline_bytes_ >> 20) + "M, its size at the start rounded up to 16M; two tiles of " +
             std::to_string(kMinTilePoints) + " points and the planning sample need the rest)");
   (void)io::XyzAccess(header_);
   std::error_code ec;
