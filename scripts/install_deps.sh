@@ -13,6 +13,10 @@ pkgs=(
   python3 python3-venv       # the Python tests run in a venv (tests/python/requirements.txt)
   xvfb xauth libgl1-mesa-dri  # offscreen screenshots of the viewer (tests and README pictures)
 )
+# cargo builds the LAZ codec (rust/ecs_laz); rustup's, when the machine has it, else Debian's.
+if ! command -v cargo >/dev/null 2>&1 && [ ! -x "$HOME/.cargo/bin/cargo" ]; then
+  pkgs+=(cargo)
+fi
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

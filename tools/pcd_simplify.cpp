@@ -7,6 +7,7 @@
 #include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/feature_aware_cover_simplify.h>
 #include <pcl_ecs/io/cloud_io.h>
+#include <pcl_ecs/io/las_io.h>
 #include <pcl_ecs/io/pcd_stream.h>
 #include <pcl_ecs/stream/out_of_core.h>
 #include <pcl_ecs/version.h>
@@ -40,11 +41,15 @@ Simplifies a point cloud while keeping its sharp features: points on sharp edges
 (curvature measure above α times the mean) are kept as they are; every other region is covered by
 balls as large as the error bound T_err allows, and each ball is replaced by one optimised point.
 
-INPUT   .pcd (ascii, binary, binary_compressed; organised or not), .ply (ascii or binary), or
-        plain text .xyz/.txt/.pts/.asc (x y z [+ intensity | normals | r g b]).
-OUTPUT  .pcd (binary by default) or .ply. Colour, intensity, normals and labels of the input are
-        kept (the point type follows the input's fields). Written to a temporary file beside
-        OUTPUT and renamed into place only on success: a failed run leaves no output.
+INPUT   .pcd (ascii, binary, binary_compressed; organised or not), .ply (ascii or binary),
+        .las / .laz (LAS 1.0-1.4, point formats 0-10), or plain text .xyz/.txt/.pts/.asc
+        (x y z [+ intensity | normals | r g b]).
+OUTPUT  .pcd (binary by default), .ply, .las or .laz. Every field of the input is kept (a
+        feature point is its input record; a representative is the record of the input point
+        it stands for, at its optimised position). LAS in, LAS out: the same version, point
+        format, scale, offset and VLRs (the CRS); x y z are rounded to the scale (docs/LAS.md).
+        Written to a temporary file beside OUTPUT and renamed into place only on success: a
+        failed run leaves no output.
 
 )";
 
@@ -226,8 +231,10 @@ Options parseArgs(int argc, char** argv, bool& done)
     if (out->empty())
       continue;
     const io::Format f = io::formatFromPath(*out);
-    if (f != io::Format::Pcd && f != io::Format::Ply)
-      throw UsageError(*out + ": output must be .pcd or .ply");
+    if (f != io::Format::Pcd && f != io::Format::Ply && f != io::Format::Las && f != io::Format::Laz)
+      throw UsageError(*out + ": output must be .pcd, .ply, .las or .laz");
+    if (f == io::Format::Laz && !io::lazSupported())
+      throw UsageError(*out + ": this build of pcd_simplify has no LAZ support (built with -DPCL_ECS_WITH_LAZ=OFF)");
   }
   if (!o.mesh.empty())
   {
@@ -505,9 +512,11 @@ int runTool(int argc, char** argv)
     }
   }
   pcl::PCLPointCloud2 input;
+  io::LasInfo las;  // the input's LAS header, kept for a LAS / LAZ output
+  bool input_is_las = false;
   try
   {
-    io::readCloud(o.input, input);
+    input_is_las = io::readCloud(o.input, input, &las);
   }
   catch (const std::exception& e)
   {
@@ -546,11 +555,13 @@ int runTool(int argc, char** argv)
   try
   {
     outputs.push_back(std::make_unique<io::AtomicOutput>(o.output));
-    io::writeCloud(outputs.back()->tempPath(), io::formatFromPath(o.output), r.output, o.encoding);
+    io::writeCloud(outputs.back()->tempPath(), io::formatFromPath(o.output), r.output, o.encoding,
+                   input_is_las ? &las : nullptr);
     if (!o.features.empty())
     {
       outputs.push_back(std::make_unique<io::AtomicOutput>(o.features));
-      io::writeCloud(outputs.back()->tempPath(), io::formatFromPath(o.features), r.features, o.encoding);
+      io::writeCloud(outputs.back()->tempPath(), io::formatFromPath(o.features), r.features, o.encoding,
+                     input_is_las ? &las : nullptr);
     }
     if (mesh)
     {
@@ -578,6 +589,10 @@ int runTool(int argc, char** argv)
   catch (const io::FileError& e)
   {
     throw ToolError(kExitOutput, e.what());
+  }
+  catch (const io::FormatError& e)  // a cloud the output format cannot hold (LAS: a coordinate past its scale)
+  {
+    throw ToolError(kExitOutput, o.output + ": " + e.what());
   }
 
   if (!r.result.summary.target_reached)

@@ -234,7 +234,7 @@ TEST_F(Cli, BadFilesAreRefusedWithExitCode3AndNoOutput)
   expectRefused(path("same.pcd") + out, 3, inputs, "identical");
   expectRefused(path("line.pcd") + out, 3, inputs, "line");
   expectRefused(path("mostlynan.pcd") + out, 3, inputs, "only 10 finite points");
-  expectRefused(path("text.pcd") + " " + path("out.xyz"), 2, inputs, "must be .pcd or .ply");
+  expectRefused(path("text.pcd") + " " + path("out.xyz"), 2, inputs, "must be .pcd, .ply, .las or .laz");
   // Unreadable, even for root (CI runs as root, which ignores file permissions): a name that
   // leads to /proc/self/mem, whose first page cannot be read.
   fs::create_symlink("/proc/self/mem", path("unreadable.pcd"));

@@ -1,10 +1,12 @@
-// libFuzzer target over our PCD, PLY and XYZ parsers: the first byte picks the parser, the rest is
-// the file. Any input must either parse or throw FormatError; a crash, a sanitizer report or an
+// libFuzzer target over our PCD, PLY, XYZ and LAS / LAZ parsers: the first byte picks the parser,
+// the rest is the file. Any input must either parse or throw FormatError; a crash, a sanitizer report or an
 // allocation beyond the RSS limit is a bug. What parses is also converted to a point type (every
 // field type through io::fromCloud) and written as PCD, which must parse again to the same
-// packed records. A PLY header's probe must agree with the parser.
+// packed records. A PLY or LAS header's probe must agree with the parser; a LAS file read is
+// written again as LAS (or LAZ), which must parse to the same points.
 #include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/cloud_io.h>
+#include <pcl_ecs/io/las_io.h>
 
 #include <cstddef>
 #include <cstdint>
@@ -21,7 +23,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   pcl::PCLPointCloud2 cloud;
   try
   {
-    switch (data[0] % 3)
+    switch (data[0] % 4)
     {
     case 0: pcl_ecs::io::parsePcd(bytes, cloud); break;
     case 1:
@@ -44,7 +46,45 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         __builtin_trap();
       break;
     }
-    default: pcl_ecs::io::parseXyz(bytes, cloud); break;
+    case 2: pcl_ecs::io::parseXyz(bytes, cloud); break;
+    default:
+    {
+      std::uint64_t probed = 0, step = 0;
+      bool probe_ok = true;
+      try
+      {
+        pcl_ecs::io::probeLas(bytes.substr(0, 375), bytes.size(), probed, step);
+      }
+      catch (const pcl_ecs::io::FormatError&)
+      {
+        probe_ok = false;
+      }
+      pcl_ecs::io::LasInfo info;
+      pcl_ecs::io::parseLas(bytes, cloud, &info);
+      if (!probe_ok || probed != cloud.width || step != cloud.point_step)
+        __builtin_trap();
+      std::string las;
+      try
+      {
+        las = pcl_ecs::io::lasBytes(cloud, &info, (data[0] / 4) % 2 == 1);
+      }
+      catch (const pcl_ecs::io::FormatError&)
+      {
+        break;  // a coordinate its own scale and offset cannot hold again (a header of extremes)
+      }
+      pcl::PCLPointCloud2 back;
+      try
+      {
+        pcl_ecs::io::parseLas(las, back);
+      }
+      catch (const pcl_ecs::io::FormatError&)
+      {
+        __builtin_trap();  // what we write must read back
+      }
+      if (back.width != cloud.width || back.point_step != cloud.point_step)
+        __builtin_trap();
+      break;
+    }
     }
     // What parsed must be self-consistent.
     const std::size_t n = static_cast<std::size_t>(cloud.width) * cloud.height;
@@ -55,7 +95,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (typed.size() != n)
       __builtin_trap();
     std::ostringstream written;
-    pcl_ecs::io::writePcd(written, cloud, static_cast<pcl_ecs::io::Encoding>(data[0] / 3 % 3));
+    pcl_ecs::io::writePcd(written, cloud, static_cast<pcl_ecs::io::Encoding>(data[0] / 4 % 3));
     pcl::PCLPointCloud2 again;
     try
     {

@@ -1,5 +1,6 @@
 #include "io_detail.h"
 
+#include <pcl_ecs/io/las_io.h>
 #include <pcl_ecs/io/pcd_stream.h>
 
 #include <algorithm>
@@ -38,7 +39,8 @@ Format formatFromPath(const std::string& path)
   // One table for every tool: extension -> format.
   static const std::pair<const char*, Format> table[] = {
       {".pcd", Format::Pcd}, {".ply", Format::Ply}, {".xyz", Format::Xyz},
-      {".txt", Format::Xyz}, {".pts", Format::Xyz}, {".asc", Format::Xyz}};
+      {".txt", Format::Xyz}, {".pts", Format::Xyz}, {".asc", Format::Xyz},
+      {".las", Format::Las}, {".laz", Format::Laz}};
   const std::string ext = lowerExtension(path);
   for (const auto& [e, f] : table)
     if (ext == e)
@@ -53,6 +55,8 @@ const char* formatName(Format format)
   case Format::Pcd: return "PCD";
   case Format::Ply: return "PLY";
   case Format::Xyz: return "XYZ";
+  case Format::Las: return "LAS";
+  case Format::Laz: return "LAZ";
   default: return "unknown";
   }
 }
@@ -61,7 +65,7 @@ CloudProbe probeCloud(const std::string& path)
 {
   std::error_code ec;
   const Format format = formatFromPath(path);
-  if (!fs::is_regular_file(path, ec) || (format != Format::Pcd && format != Format::Ply))
+  if (!fs::is_regular_file(path, ec) || format == Format::Xyz || format == Format::Unknown)
     return {};
   const std::uint64_t size = fs::file_size(path, ec);
   if (ec)
@@ -76,6 +80,15 @@ CloudProbe probeCloud(const std::string& path)
     std::ifstream in(path, std::ios::binary);
     if (!in)
       return {};
+    if (format == Format::Las || format == Format::Laz)
+    {
+      std::string head(375, '\0');
+      in.read(&head[0], static_cast<std::streamsize>(head.size()));
+      head.resize(static_cast<std::size_t>(in.gcount()));
+      CloudProbe p;
+      probeLas(head, size, p.points, p.point_step);
+      return p;
+    }
     return probePly(in, size);
   }
   catch (const FormatError& e)
@@ -87,16 +100,21 @@ CloudProbe probeCloud(const std::string& path)
 
 void readCloud(const std::string& path, pcl::PCLPointCloud2& cloud)
 {
+  readCloud(path, cloud, nullptr);
+}
+
+bool readCloud(const std::string& path, pcl::PCLPointCloud2& cloud, LasInfo* las)
+{
   const Format format = formatFromPath(path);
   if (format == Format::Unknown)
-    throw FileError(path + ": unknown extension (expected .pcd, .ply, .xyz, .txt, .pts or .asc)");
+    throw FileError(path + ": unknown extension (expected .pcd, .ply, .las, .laz, .xyz, .txt, .pts or .asc)");
   std::error_code ec;
   const auto status = fs::status(path, ec);
   if (ec || !fs::exists(status))
     throw FileError(path + ": no such file");
   if (fs::is_directory(status))
     throw FileError(path + ": is a directory, not a point cloud file");
-  if (format == Format::Ply)
+  if (format == Format::Ply || format == Format::Las || format == Format::Laz)
     probeCloud(path);  // a header that promises more than the file holds: refused unread
   std::ifstream in(path, std::ios::binary);
   if (!in)
@@ -120,6 +138,8 @@ void readCloud(const std::string& path, pcl::PCLPointCloud2& cloud)
     {
     case Format::Pcd: parsePcd(bytes, cloud); break;
     case Format::Ply: parsePly(bytes, cloud); break;
+    case Format::Las:
+    case Format::Laz: parseLas(bytes, cloud, las); return true;
     default: parseXyz(bytes, cloud); break;
     }
   }
@@ -127,6 +147,7 @@ void readCloud(const std::string& path, pcl::PCLPointCloud2& cloud)
   {
     throw FormatError(path + ": " + e.what());
   }
+  return false;
 }
 
 void writePly(std::ostream& out, const pcl::PCLPointCloud2& cloud, bool binary)
@@ -149,7 +170,9 @@ void writePly(std::ostream& out, const pcl::PCLPointCloud2& cloud, bool binary)
     case pcl::PCLPointField::UINT16: return "ushort";
     case pcl::PCLPointField::INT32: return "int";
     case pcl::PCLPointField::UINT32: return "uint";
-    case pcl::PCLPointField::FLOAT64: return "double";
+    case pcl::PCLPointField::FLOAT64:
+    case pcl::PCLPointField::INT64:   // PLY has no 64-bit integers
+    case pcl::PCLPointField::UINT64: return "double";
     default: return "float";
     }
   };
@@ -219,8 +242,20 @@ void writePly(std::ostream& out, const pcl::PCLPointCloud2& cloud, bool binary)
 }
 
 void writeCloud(const std::string& path, Format format, const pcl::PCLPointCloud2& cloud,
-                Encoding encoding)
+                Encoding encoding, const LasInfo* las)
 {
+  if (format == Format::Las || format == Format::Laz)
+  {
+    const std::string bytes = lasBytes(cloud, las, format == Format::Laz);
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    if (!out)
+      throw FileError(path + ": cannot be created (" + std::strerror(errno) + ")");
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    out.close();
+    if (!out)
+      throw FileError(path + ": write error (" + std::strerror(errno) + ")");
+    return;
+  }
   if (format == Format::Ply)
   {
     std::ofstream out(path, std::ios::binary | std::ios::trunc);
@@ -233,7 +268,7 @@ void writeCloud(const std::string& path, Format format, const pcl::PCLPointCloud
     return;
   }
   if (format != Format::Pcd)
-    throw FileError(path + ": can only write .pcd or .ply");
+    throw FileError(path + ": can only write .pcd, .ply, .las or .laz");
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   if (!out)
     throw FileError(path + ": cannot be created (" + std::strerror(errno) + ")");

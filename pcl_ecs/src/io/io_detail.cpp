@@ -20,7 +20,15 @@ template <typename T>
 void storeAs(double v, std::uint8_t* dst)
 {
   T t;
-  if constexpr (std::is_integral_v<T>)
+  if constexpr (std::is_integral_v<T> && sizeof(T) == 8)
+  {
+    // 2^63 and 2^64 are exact doubles; max() is not, so the bounds are compared, not cast.
+    const double top = std::is_signed_v<T> ? 9223372036854775808.0 : 18446744073709551616.0;
+    const double bottom = std::is_signed_v<T> ? -top : 0.0;
+    v = std::isnan(v) ? 0.0 : std::round(v);
+    t = v >= top ? std::numeric_limits<T>::max() : v <= bottom ? std::numeric_limits<T>::lowest() : static_cast<T>(v);
+  }
+  else if constexpr (std::is_integral_v<T>)
   {
     if (std::isnan(v))
       v = 0;
@@ -56,6 +64,8 @@ void storeValue(double value, std::uint8_t datatype, std::uint8_t* dst)
   case pcl::PCLPointField::UINT32: storeAs<std::uint32_t>(value, dst); break;
   case pcl::PCLPointField::FLOAT32: storeAs<float>(value, dst); break;
   case pcl::PCLPointField::FLOAT64: storeAs<double>(value, dst); break;
+  case pcl::PCLPointField::INT64: storeAs<std::int64_t>(value, dst); break;
+  case pcl::PCLPointField::UINT64: storeAs<std::uint64_t>(value, dst); break;
   default: break;
   }
 }
@@ -72,6 +82,8 @@ double loadValue(std::uint8_t datatype, const std::uint8_t* src)
   case pcl::PCLPointField::UINT32: return loadAs<std::uint32_t>(src);
   case pcl::PCLPointField::FLOAT32: return loadAs<float>(src);
   case pcl::PCLPointField::FLOAT64: return loadAs<double>(src);
+  case pcl::PCLPointField::INT64: return loadAs<std::int64_t>(src);
+  case pcl::PCLPointField::UINT64: return loadAs<std::uint64_t>(src);
   default: return 0.0;
   }
 }
@@ -133,6 +145,26 @@ bool parseNumber(const std::string& token, double& value)
 
 bool storeAsciiValue(const std::string& token, const pcl::PCLPointField& f, std::uint8_t* dst)
 {
+  if (f.datatype == pcl::PCLPointField::INT64 || f.datatype == pcl::PCLPointField::UINT64)
+  {
+    // Exactly, not through a double.
+    const bool is_signed = f.datatype == pcl::PCLPointField::INT64;
+    if (token.empty() || token.find_first_not_of(is_signed ? "-0123456789" : "0123456789") != std::string::npos)
+      return false;
+    errno = 0;
+    char* end = nullptr;
+    if (is_signed)
+    {
+      const long long v = std::strtoll(token.c_str(), &end, 10);
+      std::memcpy(dst, &v, 8);
+    }
+    else
+    {
+      const unsigned long long v = std::strtoull(token.c_str(), &end, 10);
+      std::memcpy(dst, &v, 8);
+    }
+    return errno == 0 && end && *end == '\0';
+  }
   double v = 0.0;
   if (!parseNumber(token, v))
     return false;

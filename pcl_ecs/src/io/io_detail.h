@@ -38,14 +38,17 @@ inline std::size_t datatypeSize(std::uint8_t datatype)
   case pcl::PCLPointField::INT32:
   case pcl::PCLPointField::UINT32:
   case pcl::PCLPointField::FLOAT32: return 4;
-  case pcl::PCLPointField::FLOAT64: return 8;
+  case pcl::PCLPointField::FLOAT64:
+  case pcl::PCLPointField::INT64:
+  case pcl::PCLPointField::UINT64: return 8;
   default: return 0;
   }
 }
 
 /// Store `value` as `datatype` at `dst` (integers rounded and clamped to their range).
 void storeValue(double value, std::uint8_t datatype, std::uint8_t* dst);
-/// Read a value of `datatype` at `src` (host byte order).
+/// Read a value of `datatype` at `src` (host byte order; 64-bit integers beyond 2^53 rounded: copy
+/// their bytes to keep them exact).
 double loadValue(std::uint8_t datatype, const std::uint8_t* src);
 
 /// Append a field to `cloud` (count 1) at the current end of a point; returns its offset.

@@ -52,10 +52,12 @@ std::uint8_t pcdDatatype(char type, std::uint64_t size)
   {
   case 'I':
     return size == 1 ? pcl::PCLPointField::INT8 : size == 2 ? pcl::PCLPointField::INT16
-                                                   : size == 4 ? pcl::PCLPointField::INT32 : 0;
+                                                   : size == 4 ? pcl::PCLPointField::INT32
+                                                   : size == 8 ? pcl::PCLPointField::INT64 : 0;
   case 'U':
     return size == 1 ? pcl::PCLPointField::UINT8 : size == 2 ? pcl::PCLPointField::UINT16
-                                                    : size == 4 ? pcl::PCLPointField::UINT32 : 0;
+                                                    : size == 4 ? pcl::PCLPointField::UINT32
+                                                    : size == 8 ? pcl::PCLPointField::UINT64 : 0;
   case 'F':
     return size == 4 ? pcl::PCLPointField::FLOAT32 : size == 8 ? pcl::PCLPointField::FLOAT64 : 0;
   default: return 0;

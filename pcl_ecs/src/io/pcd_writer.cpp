@@ -29,7 +29,8 @@ char pcdType(std::uint8_t datatype)
   case pcl::PCLPointField::FLOAT64: return 'F';
   case pcl::PCLPointField::INT8:
   case pcl::PCLPointField::INT16:
-  case pcl::PCLPointField::INT32: return 'I';
+  case pcl::PCLPointField::INT32:
+  case pcl::PCLPointField::INT64: return 'I';
   default: return 'U';
   }
 }
@@ -53,6 +54,18 @@ void asciiValue(std::ostream& out, const pcl::PCLPointField& f, const std::uint8
       std::snprintf(buf, sizeof buf, "nan");
     else
       std::snprintf(buf, sizeof buf, f.datatype == pcl::PCLPointField::FLOAT32 ? "%.9g" : "%.17g", v);
+  }
+  else if (f.datatype == pcl::PCLPointField::UINT64)
+  {
+    std::uint64_t v = 0;
+    std::memcpy(&v, src, 8);
+    std::snprintf(buf, sizeof buf, "%" PRIu64, v);
+  }
+  else if (f.datatype == pcl::PCLPointField::INT64)
+  {
+    std::int64_t v = 0;
+    std::memcpy(&v, src, 8);
+    std::snprintf(buf, sizeof buf, "%" PRId64, v);
   }
   else
     std::snprintf(buf, sizeof buf, "%.0f", detail::loadValue(f.datatype, src));

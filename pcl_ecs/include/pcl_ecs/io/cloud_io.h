@@ -1,5 +1,6 @@
 // cloud_io.h — reading and writing point clouds for the tools: PCD (ascii, binary,
-// binary_compressed; organised or not), PLY (ascii, binary little/big endian) and plain-text XYZ.
+// binary_compressed; organised or not), PLY (ascii, binary little/big endian), plain-text XYZ,
+// and LAS / LAZ (las_io.h).
 // The parsers are our own so that every malformed input gets a precise message instead of a crash
 // or a silent half-read (they are fuzzed: tests/fuzz). They produce a pcl::PCLPointCloud2 whose
 // fields keep PCL's names (x y z, normal_x.., rgb/rgba, intensity, label, curvature) and the
@@ -42,12 +43,15 @@ enum class Format
   Pcd,
   Ply,
   Xyz,
+  Las,
+  Laz,
   Unknown
 };
 
-/** \brief The format for a path, by extension (case-insensitive): .pcd, .ply, .xyz / .txt / .pts. */
+/** \brief The format for a path, by extension (case-insensitive): .pcd, .ply, .xyz / .txt / .pts /
+ * .asc, .las, .laz. */
 Format formatFromPath(const std::string& path);
-/** \brief "PCD", "PLY", "XYZ" or "unknown". */
+/** \brief "PCD", "PLY", "XYZ", "LAS", "LAZ" or "unknown". */
 const char* formatName(Format format);
 
 /** \brief Encoding of a written PCD / PLY. */
@@ -76,6 +80,10 @@ void parseXyz(const std::string& bytes, pcl::PCLPointCloud2& cloud);
  * whose header declares more vertices than the file can hold is refused before its body is read.
  * A pipe or FIFO is read once, as it comes. */
 void readCloud(const std::string& path, pcl::PCLPointCloud2& cloud);
+struct LasInfo;
+/** \brief readCloud that also gives, for a LAS or LAZ file, what its header says besides the
+ * points (`las` is left as it was for other formats). Returns true for a LAS or LAZ file. */
+bool readCloud(const std::string& path, pcl::PCLPointCloud2& cloud, LasInfo* las);
 
 /** \brief What a file's header declares, read without its body. */
 struct CloudProbe
@@ -83,7 +91,7 @@ struct CloudProbe
   std::uint64_t points = 0;      ///< points declared
   std::uint64_t point_step = 0;  ///< bytes of a point's values (about a record in memory)
 };
-/** \brief The header of a regular PCD or PLY file at `path` (XYZ files have none: zeros; so has
+/** \brief The header of a regular PCD, PLY, LAS or LAZ file at `path` (XYZ files have none: zeros; so has
  * anything that is not a regular file, which is never read here). Throws FormatError (prefixed
  * with the path) for a bad header or, for binary data, one that declares more points than the
  * file holds. */
@@ -91,10 +99,12 @@ CloudProbe probeCloud(const std::string& path);
 /** \brief probeCloud for a PLY header read from `in`; `file_size` bounds the body. */
 CloudProbe probePly(std::istream& in, std::uint64_t file_size);
 
-/** \brief Write `cloud` to `path` as `format` (Pcd or Ply). Writes the path given directly; use
- * AtomicOutput for the write-then-rename. Throws FileError. */
+/** \brief Write `cloud` to `path` as `format` (Pcd, Ply, Las or Laz). Writes the path given
+ * directly; use AtomicOutput for the write-then-rename. For LAS / LAZ, `las` is the header of the
+ * file the cloud was read from (or null: see lasBytes in las_io.h); `encoding` is for PCD / PLY.
+ * Throws FileError, or FormatError for a cloud LAS cannot hold. */
 void writeCloud(const std::string& path, Format format, const pcl::PCLPointCloud2& cloud,
-                Encoding encoding);
+                Encoding encoding, const LasInfo* las = nullptr);
 
 /** \brief Write a PLY file (vertex element only) to a stream; every field keeps its type. rgb / rgba
  * become uchar red green blue (alpha), normal_x.. become nx ny nz; x y z, intensity, label and

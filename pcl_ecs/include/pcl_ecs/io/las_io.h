@@ -1,0 +1,96 @@
+// las_io.h — ASPRS LAS 1.0-1.4 (point formats 0-10) and LAZ in and out of a pcl::PCLPointCloud2.
+//
+// A LAS point becomes a record with x y z as double (the file's integers times its scale plus its
+// offset) and one field per dimension of its point format, named as laspy names them and typed as
+// the file stores them (bit fields as uint8):
+//   formats 0-5:  intensity return_number number_of_returns scan_direction_flag edge_of_flight_line
+//                 classification synthetic key_point withheld scan_angle_rank user_data point_source_id
+//   formats 6-10: intensity return_number number_of_returns synthetic key_point withheld overlap
+//                 scanner_channel scan_direction_flag edge_of_flight_line classification user_data
+//                 scan_angle point_source_id
+//   and, by format: gps_time (1, 3-10), red green blue (uint16; 2, 3, 5, 7, 8, 10), nir (8, 10),
+//   wavepacket_index wavepacket_offset (uint64) wavepacket_size return_point_wave_location
+//   x_t y_t z_t (4, 5, 9, 10); the extra bytes of a record as one uint8 field `extra_bytes` of
+//   that count.
+// The header travels beside the cloud as LasInfo (version, point format, scale, offset, VLRs and
+// EVLRs such as the CRS, file source id, GUID, creation date), so that writing a cloud read from a
+// LAS file gives a file of the same kind: a point whose x y z did not change is written as the same
+// integers, every other dimension as it was read.
+// LAZ (LASzip) goes through the `laz` crate (laz-rs) when the library is built with it
+// (lazSupported()).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <pcl/PCLPointCloud2.h>
+
+namespace pcl_ecs
+{
+namespace io
+{
+
+/** \brief A variable-length record of a LAS header (or an extended one, after the points). */
+struct LasVlr
+{
+  std::uint16_t reserved = 0;
+  std::string user_id;       ///< up to 16 characters
+  std::uint16_t record_id = 0;
+  std::string description;   ///< up to 32 characters
+  std::vector<std::uint8_t> data;
+  bool extended = false;     ///< an EVLR (LAS 1.3 and later), written after the points
+};
+
+/** \brief What a LAS header says besides the points. */
+struct LasInfo
+{
+  std::uint8_t version_minor = 2;  ///< LAS 1.x
+  std::uint8_t point_format = 0;   ///< 0-10
+  std::uint16_t record_length = 20;
+  std::uint16_t file_source_id = 0;
+  std::uint16_t global_encoding = 0;
+  std::array<std::uint8_t, 16> guid{};
+  std::string system_identifier;
+  std::string generating_software;
+  std::uint16_t creation_day = 0;
+  std::uint16_t creation_year = 0;
+  std::array<double, 3> scale{{0.001, 0.001, 0.001}};
+  std::array<double, 3> offset{{0.0, 0.0, 0.0}};
+  std::vector<LasVlr> vlrs;  ///< VLRs and EVLRs in file order, without the LASzip VLR
+  bool compressed = false;   ///< read from a LAZ file
+};
+
+/** \brief Bytes of the standard fields of LAS point format `format` (0-10); 0 for another. */
+std::size_t lasStandardRecordLength(int format);
+
+/** \brief Parse a whole LAS or LAZ file held in `bytes`. Throws FormatError saying what is wrong
+ * and where (a header that declares more points than the file holds, a record length too short
+ * for its format, VLRs past the point data, corrupt compressed points). */
+void parseLas(const std::string& bytes, pcl::PCLPointCloud2& cloud, LasInfo* info = nullptr);
+
+/** \brief Points declared and the size of one in memory, read from the header in `bytes` (its
+ * first 375 bytes suffice); refuses as parseLas would a header that is not one, or an uncompressed
+ * file (of `file_size` bytes) too short for the points it declares. */
+void probeLas(const std::string& header_bytes, std::uint64_t file_size, std::uint64_t& points,
+              std::uint64_t& point_step);
+
+/** \brief A whole LAS (or, `compressed`, LAZ) file for `cloud`.
+ *
+ * With `like` (the LasInfo of the file the cloud was read from) the file keeps its version, point
+ * format, record length, scale, offset, VLRs and EVLRs and the header's identifiers and date; the
+ * bounds and the counts by return are those of the points written. Without it, the point format
+ * is 0-3 by the fields the cloud has (gps_time, colour), version 1.2, offset the box centre
+ * rounded down to an integer and the scale the finest power of ten that holds the box in
+ * 31-bit integers; fields with a LAS dimension's name are written to it (a PCL rgb/rgba as
+ * 16-bit colour, value × 257), other fields have no place in these formats and are not written.
+ * x y z are rounded to the scale. Throws FormatError for a coordinate that does not fit the
+ * scale and offset, or for LAZ when the library is built without it. */
+std::string lasBytes(const pcl::PCLPointCloud2& cloud, const LasInfo* like, bool compressed);
+
+/** \brief True when LAZ can be read and written (the library was built with the laz crate). */
+bool lazSupported();
+
+}  // namespace io
+}  // namespace pcl_ecs

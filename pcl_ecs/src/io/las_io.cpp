@@ -1,0 +1,688 @@
+// LAS / LAZ reading and writing (las_io.h). The header, the VLRs and the point records are ours
+// (the layout is ASPRS LAS 1.4 R15's); LASzip compression is the laz crate's, through the C ABI of
+// rust/ecs_laz.
+#include "io_detail.h"
+
+#include <pcl_ecs/io/las_io.h>
+#include <pcl_ecs/version.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#ifdef PCL_ECS_HAVE_LAZ
+extern "C"
+{
+  struct EcsLazBytes
+  {
+    std::uint8_t* data;
+    std::size_t len;
+    std::size_t cap;
+  };
+  int ecs_laz_vlr(std::uint8_t format, std::uint16_t extra_bytes, EcsLazBytes* out, char* err, std::size_t err_cap);
+  int ecs_laz_compress(const std::uint8_t* prefix, std::size_t prefix_len, const std::uint8_t* vlr, std::size_t vlr_len,
+                       const std::uint8_t* records, std::uint64_t count, std::uint16_t record_len, EcsLazBytes* out,
+                       char* err, std::size_t err_cap);
+  int ecs_laz_decompress(const std::uint8_t* file, std::size_t file_len, std::uint64_t point_offset,
+                         const std::uint8_t* vlr, std::size_t vlr_len, std::uint8_t* out, std::uint64_t count,
+                         std::uint16_t record_len, char* err, std::size_t err_cap);
+  void ecs_laz_free(EcsLazBytes* bytes);
+}
+#endif
+
+namespace pcl_ecs
+{
+namespace io
+{
+
+namespace
+{
+using detail::fail;
+using Field = pcl::PCLPointField;
+
+constexpr std::size_t kHeader12 = 227, kHeader13 = 235, kHeader14 = 375, kVlrHeader = 54, kEvlrHeader = 60;
+constexpr const char* kLaszipUser = "laszip encoded";
+constexpr std::uint16_t kLaszipRecord = 22204;
+// A LAZ file cannot expand beyond this many bytes of records per compressed byte: a header that
+// claims more is refused before anything is allocated (real scans compress 5-20 times).
+constexpr double kMaxLazRatio = 10000.0;
+
+/// One dimension of a point record: `bits` bits from bit `shift` of the little-endian integer of
+/// `size` bytes at `offset` (bits 0: the whole value, raw), kept as PCL `datatype`.
+struct Dim
+{
+  const char* name;
+  std::uint8_t datatype;
+  std::uint16_t offset;
+  std::uint8_t size;
+  std::uint8_t shift;
+  std::uint8_t bits;
+};
+
+std::vector<Dim> dimsOf(int format)
+{
+  static const Dim legacy[] = {{"intensity", Field::UINT16, 12, 2, 0, 16},
+         {"return_number", Field::UINT8, 14, 1, 0, 3},
+         {"number_of_returns", Field::UINT8, 14, 1, 3, 3},
+         {"scan_direction_flag", Field::UINT8, 14, 1, 6, 1},
+         {"edge_of_flight_line", Field::UINT8, 14, 1, 7, 1},
+         {"classification", Field::UINT8, 15, 1, 0, 5},
+         {"synthetic", Field::UINT8, 15, 1, 5, 1},
+         {"key_point", Field::UINT8, 15, 1, 6, 1},
+         {"withheld", Field::UINT8, 15, 1, 7, 1},
+         {"scan_angle_rank", Field::INT8, 16, 1, 0, 0},
+         {"user_data", Field::UINT8, 17, 1, 0, 8},
+         {"point_source_id", Field::UINT16, 18, 2, 0, 16}};
+  static const Dim extended[] = {{"intensity", Field::UINT16, 12, 2, 0, 16},
+         {"return_number", Field::UINT8, 14, 1, 0, 4},
+         {"number_of_returns", Field::UINT8, 14, 1, 4, 4},
+         {"synthetic", Field::UINT8, 15, 1, 0, 1},
+         {"key_point", Field::UINT8, 15, 1, 1, 1},
+         {"withheld", Field::UINT8, 15, 1, 2, 1},
+         {"overlap", Field::UINT8, 15, 1, 3, 1},
+         {"scanner_channel", Field::UINT8, 15, 1, 4, 2},
+         {"scan_direction_flag", Field::UINT8, 15, 1, 6, 1},
+         {"edge_of_flight_line", Field::UINT8, 15, 1, 7, 1},
+         {"classification", Field::UINT8, 16, 1, 0, 8},
+         {"user_data", Field::UINT8, 17, 1, 0, 8},
+         {"scan_angle", Field::INT16, 18, 2, 0, 0},
+         {"point_source_id", Field::UINT16, 20, 2, 0, 16},
+         {"gps_time", Field::FLOAT64, 22, 8, 0, 0}};
+  const bool old = format <= 5;
+  std::vector<Dim> d(old ? std::begin(legacy) : std::begin(extended), old ? std::end(legacy) : std::end(extended));
+  std::uint16_t at = 30;
+  if (old)
+  {
+    at = 20;
+    if (format == 1 || format >= 3)
+    {
+      d.push_back({"gps_time", Field::FLOAT64, at, 8, 0, 0});
+      at += 8;
+    }
+  }
+  const bool colour = format == 2 || format == 3 || format == 5 || format == 7 || format == 8 || format == 10;
+  if (colour)
+  {
+    for (const char* c : {"red", "green", "blue"})
+    {
+      d.push_back({c, Field::UINT16, at, 2, 0, 16});
+      at += 2;
+    }
+  }
+  if (format == 8 || format == 10)
+  {
+    d.push_back({"nir", Field::UINT16, at, 2, 0, 16});
+    at += 2;
+  }
+  if (format == 4 || format == 5 || format == 9 || format == 10)
+  {
+    d.push_back({"wavepacket_index", Field::UINT8, at, 1, 0, 8});
+    d.push_back({"wavepacket_offset", Field::UINT64, static_cast<std::uint16_t>(at + 1), 8, 0, 0});
+    d.push_back({"wavepacket_size", Field::UINT32, static_cast<std::uint16_t>(at + 9), 4, 0, 32});
+    const char* floats[] = {"return_point_wave_location", "x_t", "y_t", "z_t"};
+    for (int k = 0; k < 4; ++k)
+      d.push_back({floats[k], Field::FLOAT32, static_cast<std::uint16_t>(at + 13 + 4 * k), 4, 0, 0});
+  }
+  return d;
+}
+
+template <typename T>
+T get(const std::uint8_t* p)
+{
+  T v;
+  std::memcpy(&v, p, sizeof(T));
+  return v;
+}
+template <typename T>
+void put(std::uint8_t* p, T v)
+{
+  std::memcpy(p, &v, sizeof(T));
+}
+template <typename T>
+T at(const std::string& bytes, std::size_t offset)
+{
+  return get<T>(reinterpret_cast<const std::uint8_t*>(bytes.data()) + offset);
+}
+
+std::uint64_t readUnsigned(const std::uint8_t* p, std::size_t size)
+{
+  std::uint64_t v = 0;
+  for (std::size_t k = 0; k < size; ++k)
+    v |= static_cast<std::uint64_t>(p[k]) << (8 * k);
+  return v;
+}
+void writeUnsigned(std::uint8_t* p, std::size_t size, std::uint64_t v)
+{
+  for (std::size_t k = 0; k < size; ++k)
+    p[k] = static_cast<std::uint8_t>(v >> (8 * k));
+}
+
+std::string fixedString(const std::string& bytes, std::size_t offset, std::size_t n)
+{
+  std::string s = bytes.substr(offset, n);
+  const auto end = s.find('\0');
+  return end == std::string::npos ? s : s.substr(0, end);
+}
+
+std::vector<pcl::PCLPointField> cloudFields(int format, std::size_t extra, std::uint32_t& step)
+{
+  pcl::PCLPointCloud2 c;
+  for (const char* a : {"x", "y", "z"})
+    detail::addField(c, a, Field::FLOAT64);
+  for (const Dim& d : dimsOf(format))
+    detail::addField(c, d.name, d.datatype);
+  if (extra > 0)
+    detail::addField(c, "extra_bytes", Field::UINT8, static_cast<std::uint32_t>(extra));
+  step = c.point_step;
+  return c.fields;
+}
+
+struct HeaderView
+{
+  std::uint8_t minor = 0;
+  std::uint16_t header_size = 0;
+  std::uint32_t point_offset = 0;
+  std::uint32_t vlr_count = 0;
+  int format = 0;
+  bool compressed = false;
+  std::uint16_t record_length = 0;
+  std::uint64_t points = 0;
+};
+
+HeaderView readHeader(const std::string& bytes, std::uint64_t file_size)
+{
+  if (bytes.size() < 4 || bytes.compare(0, 4, "LASF") != 0)
+    fail("not a LAS file (it does not start with \"LASF\")");
+  if (bytes.size() < kHeader12)
+    fail("truncated: ", bytes.size(), " bytes, a LAS header has at least ", kHeader12);
+  HeaderView h;
+  const int major = static_cast<std::uint8_t>(bytes[24]);
+  h.minor = static_cast<std::uint8_t>(bytes[25]);
+  if (major != 1 || h.minor > 4)
+    fail("LAS version ", major, ".", int{h.minor}, " is not one this reader knows (1.0 to 1.4)");
+  h.header_size = at<std::uint16_t>(bytes, 94);
+  const std::size_t needed = h.minor >= 4 ? kHeader14 : h.minor == 3 ? kHeader13 : kHeader12;
+  if (h.header_size < needed)
+    fail("its header size ", h.header_size, " is below the ", needed, " bytes of a LAS 1.", int{h.minor}, " header");
+  if (bytes.size() < needed)
+    fail("truncated: ", bytes.size(), " bytes, a LAS 1.", int{h.minor}, " header has ", needed);
+  h.point_offset = at<std::uint32_t>(bytes, 96);
+  h.vlr_count = at<std::uint32_t>(bytes, 100);
+  const std::uint8_t fb = static_cast<std::uint8_t>(bytes[104]);
+  h.compressed = (fb & 0x80) != 0;
+  h.format = fb & 0x3F;
+  h.record_length = at<std::uint16_t>(bytes, 105);
+  if (h.format > 10)
+    fail("point format ", h.format, " is not one of LAS 1.4's (0 to 10)");
+  if (h.record_length < lasStandardRecordLength(h.format))
+    fail("its record length ", h.record_length, " is shorter than point format ", h.format, "'s ",
+         lasStandardRecordLength(h.format), " bytes");
+  if (h.point_offset < h.header_size || h.point_offset > file_size)
+    fail("its point data offset ", h.point_offset, " is outside the file (header ", h.header_size, " bytes, file ",
+         file_size, ")");
+  h.points = at<std::uint32_t>(bytes, 107);
+  if (h.minor >= 4)
+  {
+    const std::uint64_t n14 = at<std::uint64_t>(bytes, 247);
+    if (h.points != 0 && n14 != 0 && n14 != h.points)
+      fail("its point counts disagree (", h.points, " in the legacy field, ", n14, " in the LAS 1.4 field)");
+    h.points = std::max<std::uint64_t>(h.points, n14);
+  }
+  for (int a = 0; a < 3; ++a)
+  {
+    const double s = at<double>(bytes, 131 + 8 * a), o = at<double>(bytes, 155 + 8 * a);
+    if (!std::isfinite(s) || s == 0.0 || !std::isfinite(o))
+      fail("its ", "xyz"[a], " scale ", s, " or offset ", o, " is not usable");
+  }
+  const std::uint64_t body = file_size - h.point_offset;
+  if (!h.compressed && h.points > body / h.record_length)
+    fail("truncated: the header declares ", h.points, " points of ", h.record_length, " bytes from byte ",
+         h.point_offset, " but the file holds ", body / h.record_length);
+  if (h.compressed && static_cast<double>(h.points) * h.record_length > kMaxLazRatio * static_cast<double>(body) + 65536.0)
+    fail("truncated: the header declares ", h.points, " points but its ", body,
+         " bytes of compressed data cannot hold them");
+  return h;
+}
+
+void readVlr(const std::string& bytes, std::size_t& pos, std::size_t end, bool extended, LasVlr& v)
+{
+  const std::size_t head = extended ? kEvlrHeader : kVlrHeader;
+  if (pos + head > end)
+    fail(extended ? "an EVLR" : "a VLR", " at byte ", pos, " runs past ", extended ? "the end of the file" : "the point data");
+  v.reserved = at<std::uint16_t>(bytes, pos);
+  v.user_id = fixedString(bytes, pos + 2, 16);
+  v.record_id = at<std::uint16_t>(bytes, pos + 18);
+  const std::uint64_t len = extended ? at<std::uint64_t>(bytes, pos + 20) : at<std::uint16_t>(bytes, pos + 20);
+  v.description = fixedString(bytes, pos + (extended ? 28 : 22), 32);
+  v.extended = extended;
+  if (len > end - pos - head)
+    fail(extended ? "an EVLR" : "a VLR", " at byte ", pos, " declares ", len, " bytes, past ",
+         extended ? "the end of the file" : "the point data");
+  v.data.assign(bytes.begin() + static_cast<std::ptrdiff_t>(pos + head),
+                bytes.begin() + static_cast<std::ptrdiff_t>(pos + head + len));
+  pos += head + len;
+}
+
+void appendVlr(std::string& out, const LasVlr& v)
+{
+  std::uint8_t h[kEvlrHeader] = {};
+  put<std::uint16_t>(h, v.reserved);
+  std::memcpy(h + 2, v.user_id.data(), std::min<std::size_t>(16, v.user_id.size()));
+  put<std::uint16_t>(h + 18, v.record_id);
+  std::size_t head = kVlrHeader;
+  if (v.extended)
+  {
+    put<std::uint64_t>(h + 20, v.data.size());
+    std::memcpy(h + 28, v.description.data(), std::min<std::size_t>(32, v.description.size()));
+    head = kEvlrHeader;
+  }
+  else
+  {
+    put<std::uint16_t>(h + 20, static_cast<std::uint16_t>(v.data.size()));
+    std::memcpy(h + 22, v.description.data(), std::min<std::size_t>(32, v.description.size()));
+  }
+  out.append(reinterpret_cast<const char*>(h), head);
+  out.append(reinterpret_cast<const char*>(v.data.data()), v.data.size());
+}
+
+#ifndef PCL_ECS_HAVE_LAZ
+[[noreturn]] void noLaz()
+{
+  fail("LAZ is not supported by this build of pcl_ecs (built with -DPCL_ECS_WITH_LAZ=OFF: see docs/LAS.md)");
+}
+#endif
+}  // namespace
+
+std::size_t lasStandardRecordLength(int format)
+{
+  static const std::size_t len[] = {20, 28, 26, 34, 57, 63, 30, 36, 38, 59, 67};
+  return format >= 0 && format <= 10 ? len[format] : 0;
+}
+
+bool lazSupported()
+{
+#ifdef PCL_ECS_HAVE_LAZ
+  return true;
+#else
+  return false;
+#endif
+}
+
+void probeLas(const std::string& header_bytes, std::uint64_t file_size, std::uint64_t& points,
+              std::uint64_t& point_step)
+{
+  const HeaderView h = readHeader(header_bytes, file_size);
+  std::uint32_t step = 0;
+  cloudFields(h.format, h.record_length - lasStandardRecordLength(h.format), step);
+  points = h.points;
+  point_step = step;
+}
+
+void parseLas(const std::string& bytes, pcl::PCLPointCloud2& cloud, LasInfo* info)
+{
+  const HeaderView h = readHeader(bytes, bytes.size());
+  LasInfo li;
+  li.version_minor = h.minor;
+  li.point_format = static_cast<std::uint8_t>(h.format);
+  li.record_length = h.record_length;
+  li.compressed = h.compressed;
+  li.file_source_id = at<std::uint16_t>(bytes, 4);
+  li.global_encoding = at<std::uint16_t>(bytes, 6);
+  std::memcpy(li.guid.data(), bytes.data() + 8, 16);
+  li.system_identifier = fixedString(bytes, 26, 32);
+  li.generating_software = fixedString(bytes, 58, 32);
+  li.creation_day = at<std::uint16_t>(bytes, 90);
+  li.creation_year = at<std::uint16_t>(bytes, 92);
+  for (int a = 0; a < 3; ++a)
+  {
+    li.scale[a] = at<double>(bytes, 131 + 8 * a);
+    li.offset[a] = at<double>(bytes, 155 + 8 * a);
+  }
+  // VLRs, between the header and the points.
+  std::size_t pos = h.header_size;
+  const LasVlr* laszip = nullptr;
+  std::vector<LasVlr> vlrs(std::min<std::size_t>(h.vlr_count, (h.point_offset - h.header_size) / kVlrHeader + 1));
+  if (h.vlr_count > vlrs.size())
+    fail("its header declares ", h.vlr_count, " VLRs; ", h.point_offset - h.header_size, " bytes cannot hold them");
+  for (LasVlr& v : vlrs)
+  {
+    readVlr(bytes, pos, h.point_offset, false, v);
+    if (v.user_id == kLaszipUser && v.record_id == kLaszipRecord)
+      laszip = &v;
+  }
+  // EVLRs, after the points (LAS 1.4; in 1.3 the one of the waveform data).
+  std::vector<LasVlr> evlrs;
+  std::uint64_t evlr_start = 0, evlr_count = 0;
+  if (h.minor >= 4)
+  {
+    evlr_start = at<std::uint64_t>(bytes, 235);
+    evlr_count = at<std::uint32_t>(bytes, 243);
+  }
+  else if (h.minor == 3 && (li.global_encoding & 2u) != 0)
+  {
+    evlr_start = at<std::uint64_t>(bytes, 227);
+    evlr_count = evlr_start != 0 ? 1 : 0;
+  }
+  if (evlr_count > 0)
+  {
+    if (evlr_start < h.point_offset || evlr_start > bytes.size() ||
+        evlr_count > (bytes.size() - evlr_start) / kEvlrHeader)
+      fail("its ", evlr_count, " EVLR(s) at byte ", evlr_start, " are outside the file of ", bytes.size(), " bytes");
+    std::size_t epos = evlr_start;
+    evlrs.resize(evlr_count);
+    for (LasVlr& v : evlrs)
+      readVlr(bytes, epos, bytes.size(), true, v);
+  }
+
+  // The records, raw.
+  const std::size_t n = static_cast<std::size_t>(h.points);
+  std::vector<std::uint8_t> raw;
+  const std::uint8_t* rec = reinterpret_cast<const std::uint8_t*>(bytes.data()) + h.point_offset;
+  if (h.compressed)
+  {
+#ifdef PCL_ECS_HAVE_LAZ
+    if (laszip == nullptr)
+      fail("its point format says LAZ but it has no LASzip VLR");
+    raw.resize(n * h.record_length);
+    char err[512] = {};
+    if (ecs_laz_decompress(reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size(), h.point_offset,
+                           laszip->data.data(), laszip->data.size(), raw.data(), n, h.record_length, err, sizeof err) != 0)
+      fail(err);
+    rec = raw.data();
+#else
+    noLaz();
+#endif
+  }
+  else if (h.points > 0 && evlr_count > 0 && h.point_offset + n * h.record_length > evlr_start)
+    fail("its points (", n, " of ", h.record_length, " bytes from byte ", h.point_offset,
+         ") run into its EVLRs at byte ", evlr_start);
+
+  std::uint32_t step = 0;
+  const std::size_t extra = h.record_length - lasStandardRecordLength(h.format);
+  cloud = pcl::PCLPointCloud2();
+  cloud.fields = cloudFields(h.format, extra, step);
+  cloud.point_step = step;
+  cloud.width = static_cast<std::uint32_t>(n);
+  cloud.height = 1;
+  if (n != cloud.width)
+    fail("it holds ", n, " points, more than a cloud can (2^32 - 1)");
+  cloud.row_step = step * cloud.width;
+  cloud.is_bigendian = false;
+  cloud.data.resize(n * step);
+  const std::vector<Dim> dims = dimsOf(h.format);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const std::uint8_t* src = rec + i * h.record_length;
+    std::uint8_t* dst = cloud.data.data() + i * step;
+    for (int a = 0; a < 3; ++a)
+      put<double>(dst + 8 * a, static_cast<double>(get<std::int32_t>(src + 4 * a)) * li.scale[a] + li.offset[a]);
+    std::size_t f = 3;
+    for (const Dim& d : dims)
+    {
+      std::uint8_t* out = dst + cloud.fields[f++].offset;
+      if (d.bits == 0)
+        std::memcpy(out, src + d.offset, d.size);
+      else
+      {
+        const std::uint64_t v = readUnsigned(src + d.offset, d.size) >> d.shift;
+        const std::uint64_t mask = (1ull << d.bits) - 1;
+        writeUnsigned(out, detail::datatypeSize(d.datatype), v & mask);
+      }
+    }
+    if (extra > 0)
+      std::memcpy(dst + cloud.fields[f].offset, src + lasStandardRecordLength(h.format), extra);
+  }
+  detail::setDenseFlag(cloud);
+  if (info)
+  {
+    for (LasVlr& v : vlrs)
+      if (!(v.user_id == kLaszipUser && v.record_id == kLaszipRecord))
+        li.vlrs.push_back(std::move(v));
+    for (LasVlr& v : evlrs)
+      li.vlrs.push_back(std::move(v));
+    *info = std::move(li);
+  }
+}
+
+std::string lasBytes(const pcl::PCLPointCloud2& cloud, const LasInfo* like, bool compressed)
+{
+#ifndef PCL_ECS_HAVE_LAZ
+  if (compressed)
+    noLaz();
+#endif
+  const std::size_t n = static_cast<std::size_t>(cloud.width) * cloud.height;
+  auto fieldOf = [&](const char* name) -> const Field* {
+    for (const Field& f : cloud.fields)
+      if (f.name == name && f.count >= 1 && detail::datatypeSize(f.datatype) > 0)
+        return &f;
+    return nullptr;
+  };
+  const Field* xyz[3] = {fieldOf("x"), fieldOf("y"), fieldOf("z")};
+  if (!xyz[0] || !xyz[1] || !xyz[2])
+    fail("the cloud has no x y z fields");
+  auto coord = [&](std::size_t i, int a) {
+    return detail::loadValue(xyz[a]->datatype, cloud.data.data() + i * cloud.point_step + xyz[a]->offset);
+  };
+
+  LasInfo info;
+  if (like)
+    info = *like;
+  else
+  {
+    const bool colour = fieldOf("rgb") || fieldOf("rgba") || (fieldOf("red") && fieldOf("green") && fieldOf("blue"));
+    const bool time = fieldOf("gps_time") != nullptr;
+    info.point_format = static_cast<std::uint8_t>(colour ? (time ? 3 : 2) : (time ? 1 : 0));
+    info.record_length = static_cast<std::uint16_t>(lasStandardRecordLength(info.point_format));
+    info.version_minor = 2;
+    info.system_identifier = "pcl_ecs";
+    double half = 0.0;
+    std::array<double, 3> lo{{0, 0, 0}}, hi{{0, 0, 0}};
+    for (int a = 0; a < 3; ++a)
+    {
+      lo[a] = std::numeric_limits<double>::infinity();
+      hi[a] = -lo[a];
+      for (std::size_t i = 0; i < n; ++i)
+      {
+        const double v = coord(i, a);
+        if (std::isfinite(v))
+        {
+          lo[a] = std::min(lo[a], v);
+          hi[a] = std::max(hi[a], v);
+        }
+      }
+      info.offset[a] = lo[a] <= hi[a] ? std::floor(0.5 * (lo[a] + hi[a])) : 0.0;
+      if (lo[a] <= hi[a])
+        half = std::max({half, hi[a] - info.offset[a], info.offset[a] - lo[a]});
+    }
+    const double e = std::ceil(std::log10(std::max(half, 1e-300) / 1073741824.0));
+    const double s = std::pow(10.0, std::clamp(e, -12.0, 12.0));
+    info.scale = {s, s, s};
+  }
+  info.generating_software = std::string("pcl_ecs ") + PCL_ECS_VERSION_STRING;
+  const int format = info.point_format;
+  const std::size_t standard = lasStandardRecordLength(format);
+  if (standard == 0 || info.record_length < standard)
+    fail("point format ", format, " with records of ", info.record_length, " bytes cannot be written");
+  const std::size_t extra = info.record_length - standard;
+
+  // The records.
+  const std::vector<Dim> dims = dimsOf(format);
+  std::vector<const Field*> src_of(dims.size());
+  for (std::size_t k = 0; k < dims.size(); ++k)
+    src_of[k] = fieldOf(dims[k].name);
+  const Field* packed_rgb = fieldOf("rgb") ? fieldOf("rgb") : fieldOf("rgba");
+  const Field* extra_field = fieldOf("extra_bytes");
+  if (extra_field && (extra_field->datatype != Field::UINT8 || extra_field->count != extra))
+    extra_field = nullptr;
+  std::vector<std::uint8_t> records(n * info.record_length, 0);
+  std::array<std::int32_t, 3> imin{{std::numeric_limits<std::int32_t>::max(), std::numeric_limits<std::int32_t>::max(),
+                                    std::numeric_limits<std::int32_t>::max()}};
+  std::array<std::int32_t, 3> imax{{std::numeric_limits<std::int32_t>::min(), std::numeric_limits<std::int32_t>::min(),
+                                    std::numeric_limits<std::int32_t>::min()}};
+  std::array<std::uint64_t, 15> by_return{};
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const std::uint8_t* src = cloud.data.data() + i * cloud.point_step;
+    std::uint8_t* dst = records.data() + i * info.record_length;
+    for (int a = 0; a < 3; ++a)
+    {
+      const double q = std::round((coord(i, a) - info.offset[a]) / info.scale[a]);
+      if (!(q >= -2147483648.0 && q <= 2147483647.0))
+        fail("point ", i, "'s ", "xyz"[a], " = ", coord(i, a), " does not fit the LAS scale ", info.scale[a],
+             " and offset ", info.offset[a]);
+      const auto v = static_cast<std::int32_t>(q);
+      put<std::int32_t>(dst + 4 * a, v);
+      imin[a] = std::min(imin[a], v);
+      imax[a] = std::max(imax[a], v);
+    }
+    for (std::size_t k = 0; k < dims.size(); ++k)
+    {
+      const Dim& d = dims[k];
+      const Field* f = src_of[k];
+      double v = 0.0;
+      bool have = f != nullptr;
+      if (f)
+        v = detail::loadValue(f->datatype, src + f->offset);
+      else if (packed_rgb && (std::strcmp(d.name, "red") == 0 || std::strcmp(d.name, "green") == 0 ||
+                              std::strcmp(d.name, "blue") == 0))
+      {
+        std::uint32_t p = 0;
+        std::memcpy(&p, src + packed_rgb->offset, 4);
+        const int shift = d.name[0] == 'r' ? 16 : d.name[0] == 'g' ? 8 : 0;
+        v = static_cast<double>((p >> shift) & 0xFFu) * 257.0;
+        have = true;
+      }
+      if (!have)
+        continue;
+      if (d.bits == 0)
+      {
+        if (f && f->datatype == d.datatype)
+          std::memcpy(dst + d.offset, src + f->offset, d.size);
+        else
+          detail::storeValue(v, d.datatype, dst + d.offset);
+        continue;
+      }
+      const double top = static_cast<double>((1ull << d.bits) - 1);
+      const auto u = static_cast<std::uint64_t>(std::clamp(std::isfinite(v) ? std::round(v) : 0.0, 0.0, top));
+      const std::uint64_t mask = ((1ull << d.bits) - 1) << d.shift;
+      const std::uint64_t old = readUnsigned(dst + d.offset, d.size);
+      writeUnsigned(dst + d.offset, d.size, (old & ~mask) | ((u << d.shift) & mask));
+    }
+    if (extra_field)
+      std::memcpy(dst + standard, src + extra_field->offset, extra);
+    const unsigned ret = format <= 5 ? (dst[14] & 7u) : (dst[14] & 15u);
+    if (ret >= 1 && ret <= 15)
+      ++by_return[ret - 1];
+  }
+
+  // The header.
+  const std::size_t header_size = info.version_minor >= 4 ? kHeader14 : info.version_minor == 3 ? kHeader13 : kHeader12;
+  std::vector<LasVlr> vlrs, evlrs;
+  for (const LasVlr& v : info.vlrs)
+    if (!(v.user_id == kLaszipUser && v.record_id == kLaszipRecord))
+      (v.extended && info.version_minor >= 3 ? evlrs : vlrs).push_back(v);
+  for (LasVlr& v : vlrs)
+  {
+    if (v.data.size() > 65535)
+      fail("VLR \"", detail::quote(v.user_id), "\" ", v.record_id, " holds ", v.data.size(),
+           " bytes, more than a LAS VLR can");
+    v.extended = false;
+  }
+#ifdef PCL_ECS_HAVE_LAZ
+  std::vector<std::uint8_t> laszip_payload;
+  if (compressed)
+  {
+    EcsLazBytes b{nullptr, 0, 0};
+    char err[512] = {};
+    if (ecs_laz_vlr(static_cast<std::uint8_t>(format), static_cast<std::uint16_t>(extra), &b, err, sizeof err) != 0)
+      fail("LAZ: ", err);
+    laszip_payload.assign(b.data, b.data + b.len);
+    ecs_laz_free(&b);
+    LasVlr v;
+    v.user_id = kLaszipUser;
+    v.record_id = kLaszipRecord;
+    v.description = "laz-rs";
+    v.data = laszip_payload;
+    vlrs.push_back(v);
+  }
+#endif
+  std::string head(header_size, '\0');
+  auto* hp = reinterpret_cast<std::uint8_t*>(&head[0]);
+  std::memcpy(hp, "LASF", 4);
+  put<std::uint16_t>(hp + 4, info.file_source_id);
+  put<std::uint16_t>(hp + 6, info.global_encoding);
+  std::memcpy(hp + 8, info.guid.data(), 16);
+  hp[24] = 1;
+  hp[25] = info.version_minor;
+  std::memcpy(hp + 26, info.system_identifier.data(), std::min<std::size_t>(32, info.system_identifier.size()));
+  std::memcpy(hp + 58, info.generating_software.data(), std::min<std::size_t>(32, info.generating_software.size()));
+  put<std::uint16_t>(hp + 90, info.creation_day);
+  put<std::uint16_t>(hp + 92, info.creation_year);
+  put<std::uint16_t>(hp + 94, static_cast<std::uint16_t>(header_size));
+  put<std::uint32_t>(hp + 100, static_cast<std::uint32_t>(vlrs.size()));
+  hp[104] = static_cast<std::uint8_t>(format | (compressed ? 0x80 : 0));
+  put<std::uint16_t>(hp + 105, info.record_length);
+  const bool legacy = format <= 5 && n <= 0xFFFFFFFFull;
+  put<std::uint32_t>(hp + 107, legacy ? static_cast<std::uint32_t>(n) : 0u);
+  for (int r = 0; r < 5; ++r)
+    put<std::uint32_t>(hp + 111 + 4 * r, legacy ? static_cast<std::uint32_t>(by_return[r]) : 0u);
+  for (int a = 0; a < 3; ++a)
+  {
+    put<double>(hp + 131 + 8 * a, info.scale[a]);
+    put<double>(hp + 155 + 8 * a, info.offset[a]);
+    const double mx = n ? imax[a] * info.scale[a] + info.offset[a] : 0.0;
+    const double mn = n ? imin[a] * info.scale[a] + info.offset[a] : 0.0;
+    put<double>(hp + 179 + 16 * a, mx);
+    put<double>(hp + 187 + 16 * a, mn);
+  }
+  if (info.version_minor >= 4)
+  {
+    put<std::uint32_t>(hp + 243, static_cast<std::uint32_t>(evlrs.size()));
+    put<std::uint64_t>(hp + 247, n);
+    for (int r = 0; r < 15; ++r)
+      put<std::uint64_t>(hp + 255 + 8 * r, by_return[r]);
+  }
+  for (const LasVlr& v : vlrs)
+    appendVlr(head, v);
+  put<std::uint32_t>(reinterpret_cast<std::uint8_t*>(&head[0]) + 96, static_cast<std::uint32_t>(head.size()));
+
+  std::string file;
+  if (compressed)
+  {
+#ifdef PCL_ECS_HAVE_LAZ
+    EcsLazBytes b{nullptr, 0, 0};
+    char err[512] = {};
+    if (ecs_laz_compress(reinterpret_cast<const std::uint8_t*>(head.data()), head.size(), laszip_payload.data(),
+                         laszip_payload.size(), records.data(), n, info.record_length, &b, err, sizeof err) != 0)
+      fail("LAZ: ", err);
+    file.assign(reinterpret_cast<const char*>(b.data), b.len);
+    ecs_laz_free(&b);
+#endif
+  }
+  else
+  {
+    file = std::move(head);
+    file.append(reinterpret_cast<const char*>(records.data()), records.size());
+  }
+  if (!evlrs.empty())
+  {
+    const std::uint64_t start = file.size();
+    std::uint64_t waveform = 0;
+    for (const LasVlr& v : evlrs)
+    {
+      if (v.user_id == "LASF_Spec" && v.record_id == 65535 && waveform == 0)
+        waveform = file.size();
+      appendVlr(file, v);
+    }
+    auto* fp = reinterpret_cast<std::uint8_t*>(&file[0]);
+    if (info.version_minor >= 4)
+      put<std::uint64_t>(fp + 235, start);
+    if ((info.global_encoding & 2u) != 0)
+      put<std::uint64_t>(fp + 227, waveform);
+  }
+  return file;
+}
+
+}  // namespace io
+}  // namespace pcl_ecs

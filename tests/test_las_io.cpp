@@ -1,0 +1,196 @@
+// LAS / LAZ in pcl_ecs::io: a cloud of any origin gets a LAS header that holds its coordinates; a
+// LAS file read and written again is the same file; a header that lies is refused with what is
+// wrong; 64-bit integer fields (a LAS wave packet offset) keep every bit through PCD.
+#include <pcl_ecs/io/cloud_io.h>
+#include <pcl_ecs/io/las_io.h>
+
+#include <cmath>
+#include <cstring>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+namespace io = pcl_ecs::io;
+using Field = pcl::PCLPointField;
+
+namespace
+{
+/// A cloud of n points with x y z as double (centimetre UTM), a float intensity and a PCL rgb.
+pcl::PCLPointCloud2 utmCloud(std::size_t n)
+{
+  pcl::PCLPointCloud2 c;
+  const char* names[] = {"x", "y", "z", "intensity", "rgb"};
+  const std::uint8_t types[] = {Field::FLOAT64, Field::FLOAT64, Field::FLOAT64, Field::FLOAT32, Field::FLOAT32};
+  std::uint32_t at = 0;
+  for (int k = 0; k < 5; ++k)
+  {
+    Field f;
+    f.name = names[k];
+    f.datatype = types[k];
+    f.count = 1;
+    f.offset = at;
+    at += types[k] == Field::FLOAT64 ? 8 : 4;
+    c.fields.push_back(f);
+  }
+  c.point_step = at;
+  c.width = static_cast<std::uint32_t>(n);
+  c.height = 1;
+  c.row_step = c.point_step * c.width;
+  c.data.resize(n * at);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    std::uint8_t* p = c.data.data() + i * at;
+    const double xyz[3] = {512345.67 + 0.01 * static_cast<double>(i), 4101234.5 - 0.03 * static_cast<double>(i),
+                           201.25 + 0.01 * static_cast<double>(i % 7)};
+    std::memcpy(p, xyz, 24);
+    const float intensity = static_cast<float>(i % 1000);
+    std::memcpy(p + 24, &intensity, 4);
+    const std::uint32_t rgb = (static_cast<std::uint32_t>(i % 256) << 16) | (7u << 8) | 200u;
+    std::memcpy(p + 28, &rgb, 4);
+  }
+  return c;
+}
+
+double valueOf(const pcl::PCLPointCloud2& c, const std::string& name, std::size_t i)
+{
+  for (const Field& f : c.fields)
+    if (f.name == name)
+    {
+      const std::uint8_t* p = c.data.data() + i * c.point_step + f.offset;
+      switch (f.datatype)
+      {
+      case Field::UINT8: return *p;
+      case Field::UINT16: { std::uint16_t v; std::memcpy(&v, p, 2); return v; }
+      case Field::FLOAT64: { double v; std::memcpy(&v, p, 8); return v; }
+      default: break;
+      }
+    }
+  ADD_FAILURE() << "no field " << name;
+  return 0.0;
+}
+}  // namespace
+
+TEST(LasIo, ACloudOfAnyOriginGetsAScaleThatHoldsItsCoordinates)
+{
+  const pcl::PCLPointCloud2 c = utmCloud(500);
+  const std::string bytes = io::lasBytes(c, nullptr, false);
+  pcl::PCLPointCloud2 back;
+  io::LasInfo info;
+  io::parseLas(bytes, back, &info);
+  EXPECT_EQ(info.version_minor, 2);
+  EXPECT_EQ(info.point_format, 2);  // colour, no GPS time
+  ASSERT_EQ(back.width, 500u);
+  // The finest power of ten that holds ±half the box in 31 bits: the box is 15 m, so 1e-8.
+  EXPECT_DOUBLE_EQ(info.scale[0], 1e-8);
+  for (std::size_t i = 0; i < 500; ++i)
+  {
+    double x;
+    std::memcpy(&x, c.data.data() + i * c.point_step, 8);
+    EXPECT_NEAR(valueOf(back, "x", i), x, 0.5e-8 + 1e-9);
+    EXPECT_EQ(valueOf(back, "intensity", i), static_cast<double>(i % 1000));
+    EXPECT_EQ(valueOf(back, "red", i), static_cast<double>(i % 256) * 257.0);  // 8-bit colour as LAS's 16
+    EXPECT_EQ(valueOf(back, "green", i), 7.0 * 257.0);
+  }
+}
+
+TEST(LasIo, AFileReadAndWrittenAgainIsTheSameFile)
+{
+  for (const bool laz : {false, true})
+  {
+    if (laz && !io::lazSupported())
+      continue;
+    const std::string first = io::lasBytes(utmCloud(3000), nullptr, laz);
+    pcl::PCLPointCloud2 cloud;
+    io::LasInfo info;
+    io::parseLas(first, cloud, &info);
+    EXPECT_EQ(info.compressed, laz);
+    EXPECT_EQ(io::lasBytes(cloud, &info, laz), first) << (laz ? "LAZ" : "LAS");
+    // And LAZ <-> LAS changes the encoding, not the points.
+    pcl::PCLPointCloud2 other;
+    io::parseLas(io::lasBytes(cloud, &info, !laz), other);
+    EXPECT_EQ(other.data, cloud.data);
+  }
+}
+
+TEST(LasIo, AHeaderThatLiesIsRefusedWithWhatIsWrong)
+{
+  const std::string good = io::lasBytes(utmCloud(100), nullptr, false);
+  auto expectRefused = [](const std::string& bytes, const std::string& what) {
+    pcl::PCLPointCloud2 c;
+    try
+    {
+      io::parseLas(bytes, c);
+      ADD_FAILURE() << "accepted; expected: " << what;
+    }
+    catch (const io::FormatError& e)
+    {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  };
+  auto patched = [&](std::size_t at, std::uint32_t value, std::size_t size) {
+    std::string b = good;
+    std::memcpy(&b[at], &value, size);
+    return b;
+  };
+  expectRefused(good.substr(0, good.size() - 1), "truncated");
+  expectRefused(patched(107, 101, 4), "truncated");              // one point more than the file holds
+  expectRefused(patched(105, 19, 2), "record length");           // shorter than format 2's 26 bytes
+  expectRefused(patched(104, 3, 1), "record length");            // format 3 needs 34 bytes, not 26
+  expectRefused(patched(96, 100, 4), "outside the file");        // points inside the header
+  expectRefused(patched(100, 5, 4), "VLR");
+  expectRefused(patched(25, 9, 1), "version");
+  std::string zero_scale = good;
+  std::memset(&zero_scale[131], 0, 8);
+  expectRefused(zero_scale, "scale");
+  expectRefused("LASF", "truncated");
+  expectRefused("PK\x03\x04", "not a LAS file");
+  if (!io::lazSupported())
+    return;
+  // A LAZ file whose compressed points are cut, or whose VLR is not LASzip's.
+  const std::string laz = io::lasBytes(utmCloud(100000), nullptr, true);
+  expectRefused(laz.substr(0, laz.size() / 2), "compressed points are truncated or corrupt");
+  std::string wrong_vlr = laz;
+  std::memcpy(&wrong_vlr[227 + 2], "not laszip here", 15);
+  expectRefused(wrong_vlr, "no LASzip VLR");
+}
+
+TEST(LasIo, SixtyFourBitIntegersKeepEveryBitThroughPcd)
+{
+  pcl::PCLPointCloud2 c;
+  const char* names[] = {"x", "y", "z", "big", "neg"};
+  const std::uint8_t types[] = {Field::FLOAT32, Field::FLOAT32, Field::FLOAT32, Field::UINT64, Field::INT64};
+  std::uint32_t at = 0;
+  for (int k = 0; k < 5; ++k)
+  {
+    Field f;
+    f.name = names[k];
+    f.datatype = types[k];
+    f.count = 1;
+    f.offset = at;
+    at += k < 3 ? 4 : 8;
+    c.fields.push_back(f);
+  }
+  c.point_step = at;
+  c.width = 2;
+  c.height = 1;
+  c.row_step = 2 * at;
+  c.data.assign(2 * at, 0);
+  const std::uint64_t big[2] = {18446744073709551615ull, 9007199254740993ull};  // 2^64-1, 2^53+1
+  const std::int64_t neg[2] = {-9223372036854775807ll - 1, -9007199254740993ll};
+  for (int i = 0; i < 2; ++i)
+  {
+    std::memcpy(c.data.data() + i * at + 12, &big[i], 8);
+    std::memcpy(c.data.data() + i * at + 20, &neg[i], 8);
+  }
+  for (const io::Encoding e : {io::Encoding::Ascii, io::Encoding::Binary, io::Encoding::BinaryCompressed})
+  {
+    std::ostringstream out;
+    io::writePcd(out, c, e);
+    pcl::PCLPointCloud2 back;
+    io::parsePcd(out.str(), back);
+    ASSERT_EQ(back.point_step, c.point_step);
+    EXPECT_EQ(back.data, c.data) << "encoding " << static_cast<int>(e);
+    EXPECT_EQ(back.fields[3].datatype, Field::UINT64);
+    EXPECT_EQ(back.fields[4].datatype, Field::INT64);
+  }
+}
