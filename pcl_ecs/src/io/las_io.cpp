@@ -45,8 +45,9 @@ constexpr std::size_t kHeader12 = 227, kHeader13 = 235, kHeader14 = 375, kVlrHea
 constexpr const char* kLaszipUser = "laszip encoded";
 constexpr std::uint16_t kLaszipRecord = 22204;
 // A LAZ file cannot expand beyond this many bytes of records per compressed byte: a header that
-// claims more is refused before anything is allocated (real scans compress 5-20 times).
-constexpr double kMaxLazRatio = 10000.0;
+// claims more is refused before anything is allocated (real scans compress 5-20 times; a million
+// copies of one point, about 2,800 times).
+constexpr double kMaxLazRatio = 5000.0;
 
 /// One dimension of a point record: `bits` bits from bit `shift` of the little-endian integer of
 /// `size` bytes at `offset` (bits 0: the whole value, raw), kept as PCL `datatype`.

@@ -7,7 +7,8 @@
 //! cut to `err_cap` bytes) on failure; a panic in the codec is caught and reported the same way, so
 //! no input makes the caller's process abort.
 
-use laz::{LasZipCompressor, LasZipDecompressor, LazItemRecordBuilder, LazVlr, LazVlrBuilder};
+use laz::laszip::ChunkTable;
+use laz::{LasZipCompressor, LasZipDecompressor, LazItemRecordBuilder, LazItemType, LazVlr, LazVlrBuilder};
 use std::io::{Cursor, Seek, SeekFrom};
 use std::os::raw::{c_char, c_int};
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -158,12 +159,17 @@ pub extern "C" fn ecs_laz_decompress(
                 if total == 0 { &mut [][..] } else { std::slice::from_raw_parts_mut(out, total) },
             )
         };
+        let vlr_bytes = vlr;
         let vlr = LazVlr::from_buffer(vlr).map_err(|e| format!("its LASzip VLR is invalid: {e}"))?;
         if vlr.items_size() != record_len as u64 {
             return Err(format!(
                 "its LASzip VLR describes {}-byte records, the header {record_len}",
                 vlr.items_size()
             ));
+        }
+        check_chunk_table(file, point_offset, count, &vlr)?;
+        if vlr_bytes.len() >= 2 && u16::from_le_bytes([vlr_bytes[0], vlr_bytes[1]]) == 3 {
+            check_layers(file, point_offset, count, record_len, &vlr)?;
         }
         let mut cursor = Cursor::new(file);
         cursor.seek(SeekFrom::Start(point_offset)).map_err(|e| e.to_string())?;
@@ -181,6 +187,111 @@ pub extern "C" fn ecs_laz_decompress(
         }
         Ok(())
     })
+}
+
+fn i64_at(file: &[u8], at: u64) -> Option<i64> {
+    let at = usize::try_from(at).ok()?;
+    let bytes = file.get(at..at.checked_add(8)?)?;
+    Some(i64::from_le_bytes(bytes.try_into().ok()?))
+}
+
+/// The chunk table's count of chunks, checked before the codec sizes its table by it: a file whose
+/// table claims more chunks than its points can fill is corrupt (the codec would allocate 16 bytes
+/// a claimed chunk first). The table is found as the codec finds it (the offset at the start of the
+/// point data, else the last 8 bytes of the file).
+fn check_chunk_table(file: &[u8], point_offset: u64, count: u64, vlr: &LazVlr) -> Result<(), String> {
+    let mut table = match i64_at(file, point_offset) {
+        Some(t) => t,
+        None => return Ok(()), // the codec says the data is missing
+    };
+    if table <= point_offset as i64 {
+        table = match i64_at(file, (file.len() as u64).saturating_sub(8)) {
+            Some(t) => t,
+            None => return Ok(()),
+        };
+        if table <= point_offset as i64 {
+            return Ok(());
+        }
+    }
+    let chunks = match i64_at(file, table as u64) {
+        Some(v) => (v as u64) >> 32, // version (u32), then the number of chunks (u32)
+        None => return Ok(()),
+    };
+    let most = if vlr.uses_variable_size_chunks() {
+        count + 1
+    } else {
+        count / u64::from(vlr.chunk_size().max(1)) + 2
+    };
+    if chunks > most {
+        return Err(format!(
+            "its compressed points are corrupt: the chunk table declares {chunks} chunks for {count} points"
+        ));
+    }
+    Ok(())
+}
+
+fn u32_at(file: &[u8], at: u64) -> Option<u32> {
+    let at = usize::try_from(at).ok()?;
+    let bytes = file.get(at..at.checked_add(4)?)?;
+    Some(u32::from_le_bytes(bytes.try_into().ok()?))
+}
+
+/// The layer sizes of every chunk of a layered (LAS 1.4 point formats 6-10) LAZ, checked against
+/// the chunk's bytes before the codec allocates a buffer of each size it reads (up to 4 GiB a
+/// layer from a corrupt file). A chunk is its first point raw, its point count, one size per
+/// layer, then the layers.
+fn check_layers(file: &[u8], point_offset: u64, count: u64, record_len: u16, vlr: &LazVlr) -> Result<(), String> {
+    let layers: u64 = vlr
+        .items()
+        .iter()
+        .map(|item| match item.item_type() {
+            LazItemType::Point14 => 9,
+            LazItemType::RGB14 | LazItemType::WavePacket14 => 1,
+            LazItemType::RGBNIR14 => 2,
+            LazItemType::Byte14(n) => u64::from(n),
+            _ => 0,
+        })
+        .sum();
+    let fixed = !vlr.uses_variable_size_chunks();
+    let mut cursor = Cursor::new(file);
+    cursor.seek(SeekFrom::Start(point_offset)).map_err(|e| e.to_string())?;
+    // The codec reads the chunks one after the other; the table (when there is one) says how many
+    // bytes each may take.
+    let table = match ChunkTable::read_from(&mut cursor, vlr) {
+        Ok(t) => Some(t),
+        Err(_) if fixed => None,
+        Err(e) => return Err(format!("its compressed points have no readable chunk table ({e})")),
+    };
+    let corrupt = |k: u64| format!("its compressed points are truncated or corrupt (chunk {k})");
+    let mut pos = point_offset + 8;
+    let mut left = count;
+    let mut k = 0u64;
+    while left > 0 {
+        let entry = table.as_ref().and_then(|t| t.as_ref().get(k as usize));
+        let in_chunk = if fixed {
+            u64::from(vlr.chunk_size().max(1))
+        } else {
+            entry.map(|e| e.point_count).unwrap_or(left).max(1)
+        };
+        let sizes = pos + u64::from(record_len) + 4;
+        let mut sum = 0u64;
+        for l in 0..layers {
+            sum += u64::from(u32_at(file, sizes + 4 * l).ok_or_else(|| corrupt(k))?);
+        }
+        let end = sizes + 4 * layers + sum;
+        if end > file.len() as u64 {
+            return Err(corrupt(k));
+        }
+        if let Some(e) = entry {
+            if e.byte_count != 0 && end - pos > e.byte_count {
+                return Err(corrupt(k));
+            }
+        }
+        pos = end;
+        left = left.saturating_sub(in_chunk);
+        k += 1;
+    }
+    Ok(())
 }
 
 /// Frees bytes given by this library.
