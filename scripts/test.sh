@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The project's test command (CI runs exactly this): installs what is missing, builds in Release
 # and runs every test (C++ with ctest; Python with pytest, in a venv under build/ with the pinned
-# tests/python/requirements.txt); then the C++ tests under AddressSanitizer + UBSan; then fuzzes
+# tests/python/requirements.txt and the package itself, pip install .); then the C++ tests under AddressSanitizer + UBSan; then fuzzes
 # the cloud readers for a bounded time. PCL_ECS_QUICK=1 skips the sanitizer and fuzz stages.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -17,6 +17,8 @@ if [ ! -x "$venv/bin/python" ]; then
   python3 -m venv "$venv"
 fi
 "$venv/bin/pip" install --quiet --disable-pip-version-check -r tests/python/requirements.txt
+echo "== The Python package (pip install .)"
+"$venv/bin/pip" install --quiet --disable-pip-version-check .
 PCL_ECS_TOOLS="$PWD/build/tools" "$venv/bin/python" -m pytest -p no:cacheprovider -q tests/python
 
 if [ "${PCL_ECS_QUICK:-0}" = "1" ]; then

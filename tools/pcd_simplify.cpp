@@ -287,9 +287,6 @@ constexpr double kInMemoryBytesPerPoint = 250.0;
 
 nlohmann::json statsJson(const Options& o, const CloudRun& run, const pcl::PCLPointCloud2& input)
 {
-  const Summary& s = run.result.summary;
-  const StageTimings& t = s.timings;
-  const Parameters& p = o.params;
   nlohmann::json j;
   j["tool"] = "pcd_simplify";
   j["version"] = PCL_ECS_VERSION_STRING;
@@ -299,58 +296,7 @@ nlohmann::json statsJson(const Options& o, const CloudRun& run, const pcl::PCLPo
   for (const auto& f : run.output.fields)
     fields.push_back(f.name);
   j["fields"] = fields;
-  j["parameters"] = {{"error_threshold", p.error_threshold},
-                     {"error_threshold_used", s.error_threshold},
-                     {"feature_factor", p.feature_factor},
-                     {"k_neighbors", p.k_neighbors},
-                     {"error_form", toString(p.error_form)},
-                     {"adaptive", p.adaptive},
-                     {"adaptive_factor", p.adaptive_factor},
-                     {"radius_cap_factor", p.radius_cap_factor},
-                     {"target_radius_cap", p.target_radius_cap},
-                     {"max_representative_offset", p.max_representative_offset},
-                     {"representative_cutoff", p.representative_cutoff},
-                     {"max_roughness", p.max_roughness},
-                     {"max_gap_factor", p.max_gap_factor},
-                     {"target_gap_factor", p.target_gap_factor},
-                     {"radius_cap_factor_used", s.radius_cap_factor},
-                     // the gap bound the run used, in radius caps (--max-gap): with the two other
-                     // "_used" values, the flags of a plain run that gives this output
-                     {"max_gap_factor_used",
-                      s.radius_cap_factor > 0.0 && s.neighborhood_radius > 0.0
-                          ? s.max_gap / (s.radius_cap_factor * s.neighborhood_radius)
-                          : p.max_gap_factor},
-                     {"seed", p.seed},
-                     {"threads", p.threads},
-                     {"use_input_normals", p.use_input_normals},
-                     {"target_size", p.target_size},
-                     {"target_ratio", o.target_ratio}};
-  j["counts"] = {{"input_points", s.input_points},
-                 {"finite_points", s.finite_points},
-                 {"feature_points", s.feature_points},
-                 {"balls", s.balls},
-                 {"output_points", s.output_points},
-                 {"centre_fallbacks", s.centre_fallbacks},
-                 {"rough_balls", s.rough_balls},
-                 {"merged_points", s.merged_points},
-                 {"gap_points", s.gap_points},
-                 {"target_iterations", s.target_iterations},
-                 {"cover_passes", s.cover_passes}};
-  if (s.target_size > 0)
-    j["target"] = {{"size", s.target_size}, {"reached", s.target_reached}, {"closest_size", s.output_points}};
-  j["target_reached"] = s.target_reached;
-  j["geometry"] = {{"bbox_diagonal", s.bbox_diagonal},
-                   {"feature_threshold", s.feature_threshold},
-                   {"mean_spacing", s.mean_spacing},
-                   {"neighborhood_radius", s.neighborhood_radius},
-                   {"mean_abs_curvature", s.mean_abs_curvature},
-                   {"max_error", s.max_error},
-                   {"max_error_units", s.max_error * s.bbox_diagonal}};
-  j["timings_s"] = {{"preparation", t.preparation}, {"neighbors", t.neighbors},
-                    {"normals", t.normals},         {"weights", t.weights},
-                    {"features", t.features},       {"density", t.density},
-                    {"curvature", t.curvature},     {"cover", t.cover},
-                    {"output", t.output},           {"total", t.total}};
+  j.update(runStatsJson(run.result.summary, o.params, o.target_ratio));
   j["input_bbox"] = bboxJson(input);
   j["output_bbox"] = bboxJson(run.output);
   return j;

@@ -14,6 +14,7 @@
 #include <pcl_ecs/result.h>
 #include <pcl_ecs/simplify_core.h>
 
+#include <nlohmann/json.hpp>
 #include <pcl/PCLPointCloud2.h>
 
 namespace pcl_ecs
@@ -38,6 +39,10 @@ struct CloudRunOptions
 
 /** \brief Simplify `input`. On failure the result's `error` says why and the clouds are empty. */
 CloudRun simplifyCloud(const pcl::PCLPointCloud2& input, const Parameters& params, const CloudRunOptions& options);
+
+/** \brief What a run used and found, as `pcd_simplify --stats` writes it (and the Python
+ * package's Result.summary): parameters, counts, target, geometry and timings. */
+nlohmann::json runStatsJson(const Summary& s, const Parameters& p, double target_ratio);
 
 /** \brief Finite points of `cloud` at distinct places (coincident points count once). */
 std::size_t distinctFinitePoints(const pcl::PCLPointCloud2& cloud);

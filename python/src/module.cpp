@@ -1,0 +1,337 @@
+// pcl_ecs._core: the C++ library for Python (nanobind). The Python-facing API is
+// python/pcl_ecs/__init__.py; this module gives it the Parameters struct (every field, with the
+// library's defaults and validate()), the run on numpy arrays through the same code as
+// pcd_simplify (tools/common/cloud_simplify.cpp), the cloud readers and writers, and Cocone.
+#include "common/cloud_simplify.h"
+
+#include <pcl_ecs/io/cloud_io.h>
+#include <pcl_ecs/io/las_io.h>
+#include <pcl_ecs/parameters.h>
+#include <pcl_ecs/surface/cocone.h>
+#include <pcl_ecs/version.h>
+
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/vector.h>
+#include <nanobind/stl/pair.h>
+
+#include <cstring>
+#include <optional>
+#include <stdexcept>
+
+namespace nb = nanobind;
+using namespace nb::literals;
+using pcl_ecs::Parameters;
+
+namespace
+{
+template <typename T>
+using Array = nb::ndarray<T, nb::numpy, nb::c_contig>;
+
+/// A numpy array that owns `v` (moved, not copied).
+template <typename T>
+nb::ndarray<nb::numpy, T> owned(std::vector<T>&& v, std::initializer_list<std::size_t> shape)
+{
+  auto* heap = new std::vector<T>(std::move(v));
+  nb::capsule owner(heap, [](void* p) noexcept { delete static_cast<std::vector<T>*>(p); });
+  return nb::ndarray<nb::numpy, T>(heap->data(), shape, owner);
+}
+
+void addField(pcl::PCLPointCloud2& c, const std::string& name, std::uint8_t type, std::uint32_t count = 1)
+{
+  pcl::PCLPointField f;
+  f.name = name;
+  f.datatype = type;
+  f.count = count;
+  f.offset = c.point_step;
+  c.fields.push_back(f);
+  const std::uint32_t size = type == pcl::PCLPointField::FLOAT64 ? 8 : type == pcl::PCLPointField::UINT8 ? 1 : 4;
+  c.point_step += size * count;
+}
+
+/// The records of a cloud with x y z (float32 or float64), and optionally normals (float32),
+/// colours (uint8, 3 or 4 channels: rgb or rgba) and intensity (float32), from numpy arrays.
+pcl::PCLPointCloud2 cloudFrom(nb::ndarray<nb::c_contig, nb::device::cpu> points, nb::object normals,
+                              nb::object colors, nb::object intensity)
+{
+  if (points.ndim() != 2 || points.shape(1) != 3)
+    throw std::invalid_argument("points must be an (N, 3) array");
+  const bool dbl = points.dtype() == nb::dtype<double>();
+  if (!dbl && points.dtype() != nb::dtype<float>())
+    throw std::invalid_argument("points must be float32 or float64");
+  const std::size_t n = points.shape(0);
+  if (n > 0xFFFFFFFFull)
+    throw std::invalid_argument("more points than a cloud holds (2^32 - 1)");
+  pcl::PCLPointCloud2 c;
+  for (const char* a : {"x", "y", "z"})
+    addField(c, a, dbl ? pcl::PCLPointField::FLOAT64 : pcl::PCLPointField::FLOAT32);
+  std::optional<Array<const float>> nrm, inten;
+  std::optional<Array<const std::uint8_t>> col;
+  if (!normals.is_none())
+  {
+    nrm = nb::cast<Array<const float>>(normals);
+    if (nrm->ndim() != 2 || nrm->shape(0) != n || nrm->shape(1) != 3)
+      throw std::invalid_argument("normals must be an (N, 3) float32 array, N the number of points");
+    for (const char* a : {"normal_x", "normal_y", "normal_z"})
+      addField(c, a, pcl::PCLPointField::FLOAT32);
+  }
+  if (!colors.is_none())
+  {
+    col = nb::cast<Array<const std::uint8_t>>(colors);
+    if (col->ndim() != 2 || col->shape(0) != n || (col->shape(1) != 3 && col->shape(1) != 4))
+      throw std::invalid_argument("colors must be an (N, 3) or (N, 4) uint8 array, N the number of points");
+    addField(c, col->shape(1) == 4 ? "rgba" : "rgb", col->shape(1) == 4 ? pcl::PCLPointField::UINT32 : pcl::PCLPointField::FLOAT32);
+  }
+  if (!intensity.is_none())
+  {
+    inten = nb::cast<Array<const float>>(intensity);
+    if (inten->ndim() != 1 || inten->shape(0) != n)
+      throw std::invalid_argument("intensity must be an (N,) float32 array, N the number of points");
+    addField(c, "intensity", pcl::PCLPointField::FLOAT32);
+  }
+  c.width = static_cast<std::uint32_t>(n);
+  c.height = 1;
+  c.row_step = c.point_step * c.width;
+  c.data.resize(n * c.point_step);
+  const std::size_t xyz_bytes = dbl ? 24 : 12;
+  const auto* src = static_cast<const std::uint8_t*>(points.data());
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    std::uint8_t* rec = c.data.data() + i * c.point_step;
+    std::memcpy(rec, src + i * xyz_bytes, xyz_bytes);
+    std::size_t at = xyz_bytes;
+    if (nrm)
+    {
+      std::memcpy(rec + at, nrm->data() + 3 * i, 12);
+      at += 12;
+    }
+    if (col)
+    {
+      const std::uint8_t* k = col->data() + col->shape(1) * i;
+      const std::uint32_t a = col->shape(1) == 4 ? k[3] : 255u;
+      const std::uint32_t packed = (a << 24) | (std::uint32_t{k[0]} << 16) | (std::uint32_t{k[1]} << 8) | k[2];
+      std::memcpy(rec + at, &packed, 4);
+      at += 4;
+    }
+    if (inten)
+      std::memcpy(rec + at, inten->data() + i, 4);
+  }
+  c.is_dense = false;
+  return c;
+}
+
+double coordinate(const pcl::PCLPointCloud2& c, std::size_t i, int axis)
+{
+  const pcl::PCLPointField& f = c.fields[static_cast<std::size_t>(axis)];
+  const std::uint8_t* p = c.data.data() + i * c.point_step + f.offset;
+  if (f.datatype == pcl::PCLPointField::FLOAT64)
+  {
+    double v;
+    std::memcpy(&v, p, 8);
+    return v;
+  }
+  float v;
+  std::memcpy(&v, p, 4);
+  return v;
+}
+
+nb::dict simplify(nb::ndarray<nb::c_contig, nb::device::cpu> points, nb::object normals, nb::object colors,
+                  nb::object intensity, const Parameters& params, double target_ratio)
+{
+  const std::string bad = pcl_ecs::validate(params);
+  if (!bad.empty())
+    throw nb::value_error(bad.c_str());
+  if (!(target_ratio >= 0.0 && target_ratio <= 1.0))
+    throw nb::value_error("target_ratio must be in (0, 1]");
+  if (target_ratio > 0.0 && params.target_size > 0)
+    throw nb::value_error("target_size and target_ratio exclude each other");
+  if (params.use_input_normals && normals.is_none())
+    throw nb::value_error("use_input_normals needs normals");
+  const pcl::PCLPointCloud2 cloud = cloudFrom(points, normals, colors, intensity);
+  pcl_ecs::tools::CloudRunOptions options;
+  options.target_ratio = target_ratio;
+  pcl_ecs::tools::CloudRun run;
+  {
+    nb::gil_scoped_release release;
+    run = pcl_ecs::tools::simplifyCloud(cloud, params, options);
+  }
+  if (!run.result.error.empty())
+    throw nb::value_error(run.result.error.c_str());
+  const pcl_ecs::Result& r = run.result;
+  const std::size_t m = r.labels.size();
+  std::vector<double> xyz(3 * m);
+  for (std::size_t i = 0; i < m; ++i)
+    for (int a = 0; a < 3; ++a)
+      xyz[3 * i + a] = coordinate(run.output, i, a);
+  std::vector<std::uint8_t> labels(m);
+  for (std::size_t i = 0; i < m; ++i)
+    labels[i] = static_cast<std::uint8_t>(r.labels[i]);
+  std::vector<double> centre(3 * r.balls.size()), radius(r.balls.size()), tolerance(r.balls.size()),
+      error(r.balls.size());
+  std::vector<std::int64_t> replaced(r.balls.size()), centre_index(r.balls.size());
+  for (std::size_t b = 0; b < r.balls.size(); ++b)
+  {
+    for (int a = 0; a < 3; ++a)
+      centre[3 * b + a] = r.balls[b].centre[a];
+    radius[b] = r.balls[b].radius;
+    tolerance[b] = r.balls[b].tolerance;
+    error[b] = r.balls[b].error;
+    replaced[b] = static_cast<std::int64_t>(r.balls[b].replaced);
+    centre_index[b] = r.balls[b].centre_index;
+  }
+  const std::size_t nb_balls = r.balls.size();
+  const std::size_t n_in = r.input_to_output.size();
+  nb::dict out;
+  out["points"] = owned(std::move(xyz), {m, 3});
+  out["labels"] = owned(std::move(labels), {m});
+  out["source_index"] = owned(std::vector<std::int64_t>(r.source_index), {m});
+  out["input_to_output"] = owned(std::vector<std::int64_t>(r.input_to_output), {n_in});
+  out["ball_centre"] = owned(std::move(centre), {nb_balls, 3});
+  out["ball_centre_index"] = owned(std::move(centre_index), {nb_balls});
+  out["ball_radius"] = owned(std::move(radius), {nb_balls});
+  out["ball_tolerance"] = owned(std::move(tolerance), {nb_balls});
+  out["ball_error"] = owned(std::move(error), {nb_balls});
+  out["ball_replaced"] = owned(std::move(replaced), {nb_balls});
+  out["summary_json"] = pcl_ecs::tools::runStatsJson(r.summary, params, target_ratio).dump();
+  return out;
+}
+
+/// Every field of a cloud file, by name: (N,) arrays, or (N, count) for a field of count > 1.
+nb::dict readFile(const std::string& path)
+{
+  pcl::PCLPointCloud2 c;
+  try
+  {
+    pcl_ecs::io::readCloud(path, c);
+  }
+  catch (const pcl_ecs::io::FileError& e)
+  {
+    throw std::runtime_error(e.what());
+  }
+  catch (const pcl_ecs::io::FormatError& e)
+  {
+    throw nb::value_error(e.what());
+  }
+  const std::size_t n = static_cast<std::size_t>(c.width) * c.height;
+  nb::dict out;
+  nb::module_ np = nb::module_::import_("numpy");
+  static const std::pair<std::uint8_t, const char*> types[] = {
+      {pcl::PCLPointField::INT8, "i1"},    {pcl::PCLPointField::UINT8, "u1"},   {pcl::PCLPointField::INT16, "<i2"},
+      {pcl::PCLPointField::UINT16, "<u2"}, {pcl::PCLPointField::INT32, "<i4"},  {pcl::PCLPointField::UINT32, "<u4"},
+      {pcl::PCLPointField::FLOAT32, "<f4"}, {pcl::PCLPointField::FLOAT64, "<f8"}, {pcl::PCLPointField::INT64, "<i8"},
+      {pcl::PCLPointField::UINT64, "<u8"}};
+  // One structured view of the records, each field a column of it (copied into its own array).
+  nb::list names, formats, offsets;
+  for (const pcl::PCLPointField& f : c.fields)
+  {
+    const char* t = nullptr;
+    for (const auto& [dt, name] : types)
+      if (dt == f.datatype)
+        t = name;
+    if (!t || f.count == 0 || f.name == "_")
+      continue;
+    names.append(f.name);
+    formats.append(f.count == 1 ? std::string(t) : "(" + std::to_string(f.count) + ",)" + t);
+    offsets.append(f.offset);
+  }
+  nb::dict spec;
+  spec["names"] = names;
+  spec["formats"] = formats;
+  spec["offsets"] = offsets;
+  spec["itemsize"] = c.point_step;
+  nb::object dtype = np.attr("dtype")(spec);
+  nb::object raw = np.attr("frombuffer")(nb::bytes(reinterpret_cast<const char*>(c.data.data()), c.data.size()), dtype, n);
+  for (nb::handle name : names)
+    out[name] = np.attr("ascontiguousarray")(raw[name]);
+  return out;
+}
+
+void writeFile(const std::string& path, nb::ndarray<nb::c_contig, nb::device::cpu> points, nb::object normals,
+           nb::object colors, nb::object intensity)
+{
+  const pcl_ecs::io::Format format = pcl_ecs::io::formatFromPath(path);
+  if (format == pcl_ecs::io::Format::Unknown || format == pcl_ecs::io::Format::Xyz)
+    throw nb::value_error((path + ": the file name must end in .pcd, .ply, .las or .laz").c_str());
+  const pcl::PCLPointCloud2 cloud = cloudFrom(points, normals, colors, intensity);
+  try
+  {
+    pcl_ecs::io::AtomicOutput out(path);
+    pcl_ecs::io::writeCloud(out.tempPath(), format, cloud, pcl_ecs::io::Encoding::Binary);
+    out.commit();
+  }
+  catch (const pcl_ecs::io::FileError& e)
+  {
+    throw std::runtime_error(e.what());
+  }
+  catch (const pcl_ecs::io::FormatError& e)
+  {
+    throw nb::value_error(e.what());
+  }
+}
+
+std::pair<nb::ndarray<nb::numpy, double>, nb::ndarray<nb::numpy, std::int64_t>> reconstruct(Array<const double> points)
+{
+  if (points.ndim() != 2 || points.shape(1) != 3)
+    throw nb::value_error("points must be an (N, 3) float64 array");
+  const std::size_t n = points.shape(0);
+  std::vector<Eigen::Vector3d> pts(n);
+  for (std::size_t i = 0; i < n; ++i)
+    pts[i] = Eigen::Vector3d(points.data()[3 * i], points.data()[3 * i + 1], points.data()[3 * i + 2]);
+  pcl_ecs::surface::CoconeResult r;
+  {
+    nb::gil_scoped_release release;
+    r = pcl_ecs::surface::coconeReconstruct(pts);
+  }
+  if (!r.ok())
+    throw nb::value_error(r.error.c_str());
+  std::vector<double> v(3 * n);
+  for (std::size_t i = 0; i < n; ++i)
+    for (int a = 0; a < 3; ++a)
+      v[3 * i + a] = pts[i][a];
+  std::vector<std::int64_t> t(3 * r.triangles.size());
+  for (std::size_t k = 0; k < r.triangles.size(); ++k)
+    for (int a = 0; a < 3; ++a)
+      t[3 * k + a] = r.triangles[k][a];
+  const std::size_t nt = r.triangles.size();
+  return {owned(std::move(v), {n, 3}), owned(std::move(t), {nt, 3})};
+}
+}  // namespace
+
+NB_MODULE(_core, m)
+{
+  m.doc() = "pcl_ecs: feature-preserving, error-controlled point cloud simplification (C++ core)";
+  m.attr("__version__") = PCL_ECS_VERSION_STRING;
+  m.attr("laz_supported") = pcl_ecs::io::lazSupported();
+  nb::class_<Parameters>(m, "Parameters", "Every parameter of the method, with the C++ library's defaults")
+      .def(nb::init<>())
+      .def_rw("error_threshold", &Parameters::error_threshold)
+      .def_rw("feature_factor", &Parameters::feature_factor)
+      .def_rw("k_neighbors", &Parameters::k_neighbors)
+      .def_prop_rw(
+          "error_form", [](const Parameters& p) { return std::string(pcl_ecs::toString(p.error_form)); },
+          [](Parameters& p, const std::string& s) {
+            if (!pcl_ecs::parseErrorForm(s, p.error_form))
+              throw nb::value_error(("error_form must be \"normalized\" or \"paper\", not \"" + s + "\"").c_str());
+          })
+      .def_rw("adaptive", &Parameters::adaptive)
+      .def_rw("adaptive_factor", &Parameters::adaptive_factor)
+      .def_rw("radius_cap_factor", &Parameters::radius_cap_factor)
+      .def_rw("target_radius_cap", &Parameters::target_radius_cap)
+      .def_rw("max_representative_offset", &Parameters::max_representative_offset)
+      .def_rw("representative_cutoff", &Parameters::representative_cutoff)
+      .def_rw("max_roughness", &Parameters::max_roughness)
+      .def_rw("max_gap_factor", &Parameters::max_gap_factor)
+      .def_rw("target_gap_factor", &Parameters::target_gap_factor)
+      .def_rw("seed", &Parameters::seed)
+      .def_rw("use_input_normals", &Parameters::use_input_normals)
+      .def_rw("threads", &Parameters::threads)
+      .def_rw("target_size", &Parameters::target_size)
+      .def("validate", [](const Parameters& p) { return pcl_ecs::validate(p); },
+           "The reason the parameters are invalid, or an empty string");
+  m.def("_simplify", &simplify, "points"_a, "normals"_a.none(), "colors"_a.none(), "intensity"_a.none(),
+        "params"_a, "target_ratio"_a);
+  m.def("_read", &readFile, "path"_a);
+  m.def("_write", &writeFile, "path"_a, "points"_a, "normals"_a.none(), "colors"_a.none(), "intensity"_a.none());
+  m.def("_reconstruct", &reconstruct, "points"_a);
+}

@@ -1,0 +1,212 @@
+"""The Python package pcl_ecs (pip install .): the same output as pcd_simplify, every parameter
+a keyword with the library's validation, float32 and float64 inputs, the readers and writers, and
+the examples of docs/PYTHON.md (LAZ with laspy, Open3D) run as tests.
+"""
+import json
+import pathlib
+import subprocess
+
+import laspy
+import numpy as np
+import open3d as o3d
+import pytest
+
+import pcl_ecs
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+SHARED = ROOT.parent / "shared" / "data"
+
+
+def sphere_with_cap(n=6000, dtype=np.float64):
+    i = np.arange(n)
+    z = 1.0 - 2.0 * (i + 0.5) / n
+    s = np.sqrt(1.0 - z * z)
+    t = np.pi * (3.0 - np.sqrt(5.0)) * i
+    return np.stack([s * np.cos(t), s * np.sin(t), np.minimum(z, 0.5)], axis=1).astype(dtype)
+
+
+def test_simplify_equals_pcd_simplify_on_the_bunny(tools, tmp_path):
+    bunny = SHARED / "bunny.pcd"
+    fields = pcl_ecs.read(bunny)
+    points = np.stack([fields["x"], fields["y"], fields["z"]], axis=1)
+    assert points.dtype == np.float32
+    for args, kwargs in (([], {}), (["--target-ratio", "0.05"], {"target_ratio": 0.05}),
+                         (["--terr", "0.002", "--alpha", "4"], {"error_threshold": 0.002, "feature_factor": 4})):
+        out = tmp_path / "out.pcd"
+        stats = tmp_path / "s.json"
+        r = subprocess.run([str(tools / "pcd_simplify"), str(bunny), str(out), "--quiet", "--labels", "--stats",
+                            str(stats), *args], capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr
+        res = pcl_ecs.simplify(points, **kwargs)
+        cli = pcl_ecs.read(out)
+        cli_points = np.stack([cli["x"], cli["y"], cli["z"]], axis=1).astype(np.float64)
+        assert np.array_equal(res.points, cli_points), args
+        assert np.array_equal(res.labels, cli["ecs_label"]), args
+        s = json.loads(stats.read_text())
+        assert res.summary["counts"] == s["counts"]
+        assert res.summary["parameters"] == s["parameters"]
+        # Attributes travel through source_index, as pcd_simplify carries them.
+        assert np.array_equal(points[res.source_index][res.labels == 1], cli_points[res.labels == 1])
+
+
+def test_result_arrays_describe_the_run():
+    pts = sphere_with_cap()
+    r = pcl_ecs.simplify(pts)
+    m = len(r.points)
+    assert r.points.shape == (m, 3) and r.points.dtype == np.float64
+    assert r.labels.dtype == np.uint8 and set(np.unique(r.labels)) <= {1, 2}
+    assert r.source_index.dtype == np.int64 and r.source_index.shape == (m,)
+    assert r.input_to_output.shape == (len(pts),) and r.input_to_output.min() >= 0
+    feats = r.labels == 1
+    assert feats.sum() == r.summary["counts"]["feature_points"] > 0
+    assert np.array_equal(r.points[feats], pts[r.source_index[feats]])  # features are input points
+    assert len(r.balls) == r.summary["counts"]["balls"]
+    assert (r.balls["radius"] >= 0).all() and (r.balls["error"] <= r.balls["tolerance"] + 1e-15).all()
+    assert r.balls["replaced"].sum() + feats.sum() >= len(pts) - r.summary["counts"]["merged_points"]
+
+
+def test_float32_and_float64_give_the_same_cloud():
+    # The same coordinates as float32 and as float64: the same run; the output is stored in the
+    # input's type, so the float32 run's points are the float64 run's rounded to float32.
+    a = pcl_ecs.simplify(sphere_with_cap(dtype=np.float32))
+    b = pcl_ecs.simplify(sphere_with_cap(dtype=np.float32).astype(np.float64))
+    assert np.array_equal(a.labels, b.labels) and np.array_equal(a.source_index, b.source_index)
+    assert np.array_equal(a.points, b.points.astype(np.float32).astype(np.float64))
+    assert not np.array_equal(a.points, b.points), "float64 keeps the representatives' precision"
+
+
+def test_every_parameter_is_a_keyword_that_round_trips():
+    defaults = pcl_ecs.Parameters()
+    names = pcl_ecs.parameter_names()
+    assert "error_threshold" in names and "target_size" in names and len(names) == 17
+    changed = {"error_threshold": 0.002, "feature_factor": 5.0, "k_neighbors": 12, "error_form": "paper",
+               "adaptive": False, "adaptive_factor": 3.0, "radius_cap_factor": 4.0, "target_radius_cap": 2.0,
+               "max_representative_offset": 0.7, "representative_cutoff": 0.1, "max_roughness": 0.3,
+               "max_gap_factor": 0.8, "target_gap_factor": 0.5, "seed": 7, "threads": 1,
+               "use_input_normals": False, "target_size": 0}
+    assert set(changed) == set(names)
+    r = pcl_ecs.simplify(sphere_with_cap(), **changed)
+    for name, value in changed.items():
+        assert r.summary["parameters"][name] == value, name
+    assert getattr(defaults, "error_threshold") == 1e-3 and defaults.k_neighbors == 16
+
+
+@pytest.mark.parametrize("kwargs,message", [
+    ({"error_threshold": 0.0}, "error_threshold"),
+    ({"error_threshold": 2.0}, "error_threshold"),
+    ({"k_neighbors": 2}, "k_neighbors"),
+    ({"error_form": "cubic"}, "error_form"),
+    ({"feature_factor": -1.0}, "feature_factor"),
+    ({"target_ratio": 1.5}, "target_ratio"),
+    ({"use_input_normals": True}, "normals"),
+])
+def test_bad_values_raise_value_error_with_the_library_message(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        pcl_ecs.simplify(sphere_with_cap(), **kwargs)
+
+
+def test_unknown_keywords_and_bad_arrays_are_refused():
+    with pytest.raises(TypeError, match="unexpected keyword"):
+        pcl_ecs.simplify(sphere_with_cap(), terr=0.01)
+    with pytest.raises(ValueError, match=r"\(N, 3\)"):
+        pcl_ecs.simplify(np.zeros((10, 2)))
+    with pytest.raises(ValueError, match="colors"):
+        pcl_ecs.simplify(sphere_with_cap(), colors=np.zeros((5, 3), np.uint8))
+    with pytest.raises(ValueError):
+        pcl_ecs.simplify(np.zeros((5, 3)))  # fewer points than K + 1
+
+
+def test_nan_rows_are_dropped_as_in_cpp():
+    pts = sphere_with_cap()
+    clean = pcl_ecs.simplify(pts)
+    holed = pts.copy()
+    holed[::7] = np.nan
+    r = pcl_ecs.simplify(holed)
+    assert r.summary["counts"]["finite_points"] == len(pts) - len(pts[::7])
+    assert (r.input_to_output[::7] == -1).all()
+    assert np.isfinite(r.points).all()
+    assert clean.summary["counts"]["finite_points"] == len(pts)
+
+
+def test_read_write_round_trip(tmp_path):
+    pts = sphere_with_cap()
+    colors = (np.arange(len(pts) * 3) % 256).astype(np.uint8).reshape(-1, 3)
+    for name in ("c.pcd", "c.ply", "c.las") + (("c.laz",) if pcl_ecs.laz_supported else ()):
+        pcl_ecs.write(tmp_path / name, pts, colors=colors)
+        back = pcl_ecs.read(tmp_path / name)
+        xyz = np.stack([back["x"], back["y"], back["z"]], axis=1)
+        tol = 0.0 if name.endswith((".pcd", ".ply")) else 1e-6
+        assert np.abs(xyz - pts).max() <= tol, name
+    with pytest.raises(ValueError, match="no such file|truncated|not a LAS"):
+        (tmp_path / "bad.las").write_bytes(b"LASF" + bytes(100))
+        pcl_ecs.read(tmp_path / "bad.las")
+
+
+def test_reconstruct_closes_a_sphere():
+    i = np.arange(3000)
+    z = 1.0 - 2.0 * (i + 0.5) / 3000
+    s = np.sqrt(1.0 - z * z)
+    t = np.pi * (3.0 - np.sqrt(5.0)) * i
+    pts = np.stack([s * np.cos(t), s * np.sin(t), z], axis=1)
+    v, tri = pcl_ecs.reconstruct(pts)
+    assert v.shape == pts.shape and tri.dtype == np.int64
+    edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    assert (counts == 2).all(), "closed and manifold: every edge has two triangles"
+    assert len(np.unique(tri)) - len(counts) + len(tri) == 2  # Euler characteristic of a sphere
+
+
+# ---- the examples of docs/PYTHON.md --------------------------------------------------------------
+
+def test_example_laz_to_laz_with_laspy_keeps_every_dimension(tmp_path):
+    header = laspy.LasHeader(point_format=3, version="1.2")
+    header.scales = np.array([0.01, 0.01, 0.01])
+    header.offsets = np.array([500000.0, 4100000.0, 0.0])
+    las = laspy.LasData(header)
+    pts = sphere_with_cap() * 10.0
+    las.x, las.y, las.z = pts[:, 0] + 500000.0, pts[:, 1] + 4100000.0, pts[:, 2]
+    rng = np.random.default_rng(3)
+    las.intensity = rng.permutation(len(pts)).astype(np.uint16)
+    las.classification = rng.integers(0, 32, len(pts)).astype(np.uint8)
+    las.gps_time = rng.uniform(0, 1e5, len(pts))
+    las.red = rng.integers(0, 65536, len(pts)).astype(np.uint16)
+    src_path = tmp_path / "in.las"
+    las.write(src_path)
+
+    # The example: read with laspy, simplify the coordinates, keep every dimension by source_index.
+    las = laspy.read(src_path)
+    r = pcl_ecs.simplify(np.stack([las.x, las.y, las.z], axis=1), target_ratio=0.1)
+    out = laspy.LasData(las.header)
+    out.points = las.points[r.source_index]
+    out.x, out.y, out.z = r.points[:, 0], r.points[:, 1], r.points[:, 2]
+    out.write(tmp_path / "out.laz")
+
+    back = laspy.read(tmp_path / "out.laz")
+    assert len(back.points) == len(r.points)
+    for dim in ("intensity", "classification", "gps_time", "red"):
+        assert np.array_equal(np.asarray(back[dim]), np.asarray(las[dim])[r.source_index]), dim
+    assert np.abs(np.asarray(back.x) - r.points[:, 0]).max() <= 0.005 + 1e-9
+
+
+def test_example_open3d_point_cloud_round_trip():
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(sphere_with_cap()))
+    pcd.colors = o3d.utility.Vector3dVector(np.random.default_rng(1).uniform(0, 1, (6000, 3)))
+
+    r = pcl_ecs.simplify(np.asarray(pcd.points), target_ratio=0.1)
+    small = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(r.points))
+    small.colors = o3d.utility.Vector3dVector(np.asarray(pcd.colors)[r.source_index])
+
+    assert len(small.points) == len(r.points)
+    assert abs(len(r.points) - 600) <= 60
+    assert np.array_equal(np.asarray(small.colors), np.asarray(pcd.colors)[r.source_index])
+
+
+def test_the_type_stubs_name_every_parameter_with_the_library_default():
+    import ast
+    stub = ast.parse((pathlib.Path(pcl_ecs.__file__).with_suffix(".pyi")).read_text())
+    fn = next(n for n in stub.body if isinstance(n, ast.FunctionDef) and n.name == "simplify")
+    defaults = {a.arg: ast.literal_eval(d) for a, d in zip(fn.args.kwonlyargs, fn.args.kw_defaults)}
+    p = pcl_ecs.Parameters()
+    for name in pcl_ecs.parameter_names():
+        assert name in defaults, name
+        assert defaults[name] == getattr(p, name), name
