@@ -1,6 +1,7 @@
 // LAS / LAZ in pcl_ecs::io: a cloud of any origin gets a LAS header that holds its coordinates; a
 // LAS file read and written again is the same file; a header that lies is refused with what is
 // wrong; 64-bit integer fields (a LAS wave packet offset) keep every bit through PCD.
+#include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/cloud_io.h>
 #include <pcl_ecs/io/las_io.h>
 
@@ -15,28 +16,25 @@ using Field = pcl::PCLPointField;
 
 namespace
 {
-/// A cloud of n points with x y z as double (centimetre UTM), a float intensity and a PCL rgb.
-pcl::PCLPointCloud2 utmCloud(std::size_t n)
+/// A cloud of n zeroed records of the given fields (count 1 each).
+pcl::PCLPointCloud2 cloudOf(std::size_t n, std::initializer_list<std::pair<const char*, std::uint8_t>> fields)
 {
   pcl::PCLPointCloud2 c;
-  const char* names[] = {"x", "y", "z", "intensity", "rgb"};
-  const std::uint8_t types[] = {Field::FLOAT64, Field::FLOAT64, Field::FLOAT64, Field::FLOAT32, Field::FLOAT32};
-  std::uint32_t at = 0;
-  for (int k = 0; k < 5; ++k)
-  {
-    Field f;
-    f.name = names[k];
-    f.datatype = types[k];
-    f.count = 1;
-    f.offset = at;
-    at += types[k] == Field::FLOAT64 ? 8 : 4;
-    c.fields.push_back(f);
-  }
-  c.point_step = at;
+  for (const auto& [name, type] : fields)
+    io::appendField(c, name, type);
   c.width = static_cast<std::uint32_t>(n);
   c.height = 1;
   c.row_step = c.point_step * c.width;
-  c.data.resize(n * at);
+  c.data.assign(n * c.point_step, 0);
+  return c;
+}
+
+/// A cloud of n points with x y z as double (centimetre UTM), a float intensity and a PCL rgb.
+pcl::PCLPointCloud2 utmCloud(std::size_t n)
+{
+  pcl::PCLPointCloud2 c = cloudOf(n, {{"x", Field::FLOAT64}, {"y", Field::FLOAT64}, {"z", Field::FLOAT64},
+                                       {"intensity", Field::FLOAT32}, {"rgb", Field::FLOAT32}});
+  const std::uint32_t at = c.point_step;
   for (std::size_t i = 0; i < n; ++i)
   {
     std::uint8_t* p = c.data.data() + i * at;
@@ -139,6 +137,7 @@ TEST(LasIo, AHeaderThatLiesIsRefusedWithWhatIsWrong)
   expectRefused(patched(96, 100, 4), "outside the file");        // points inside the header
   expectRefused(patched(100, 5, 4), "VLR");
   expectRefused(patched(25, 9, 1), "version");
+  expectRefused(patched(104, 6, 1), "needs LAS 1.4");             // a 1.2 header with a 1.4 format
   std::string zero_scale = good;
   std::memset(&zero_scale[131], 0, 8);
   expectRefused(zero_scale, "scale");
@@ -156,25 +155,9 @@ TEST(LasIo, AHeaderThatLiesIsRefusedWithWhatIsWrong)
 
 TEST(LasIo, SixtyFourBitIntegersKeepEveryBitThroughPcd)
 {
-  pcl::PCLPointCloud2 c;
-  const char* names[] = {"x", "y", "z", "big", "neg"};
-  const std::uint8_t types[] = {Field::FLOAT32, Field::FLOAT32, Field::FLOAT32, Field::UINT64, Field::INT64};
-  std::uint32_t at = 0;
-  for (int k = 0; k < 5; ++k)
-  {
-    Field f;
-    f.name = names[k];
-    f.datatype = types[k];
-    f.count = 1;
-    f.offset = at;
-    at += k < 3 ? 4 : 8;
-    c.fields.push_back(f);
-  }
-  c.point_step = at;
-  c.width = 2;
-  c.height = 1;
-  c.row_step = 2 * at;
-  c.data.assign(2 * at, 0);
+  pcl::PCLPointCloud2 c = cloudOf(2, {{"x", Field::FLOAT32}, {"y", Field::FLOAT32}, {"z", Field::FLOAT32},
+                                       {"big", Field::UINT64}, {"neg", Field::INT64}});
+  const std::uint32_t at = c.point_step;
   const std::uint64_t big[2] = {18446744073709551615ull, 9007199254740993ull};  // 2^64-1, 2^53+1
   const std::int64_t neg[2] = {-9223372036854775807ll - 1, -9007199254740993ll};
   for (int i = 0; i < 2; ++i)

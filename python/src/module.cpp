@@ -4,6 +4,7 @@
 // pcd_simplify (tools/common/cloud_simplify.cpp), the cloud readers and writers, and Cocone.
 #include "common/cloud_simplify.h"
 
+#include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/cloud_io.h>
 #include <pcl_ecs/io/las_io.h>
 #include <pcl_ecs/parameters.h>
@@ -38,18 +39,6 @@ nb::ndarray<nb::numpy, T> owned(std::vector<T>&& v, std::initializer_list<std::s
   return nb::ndarray<nb::numpy, T>(heap->data(), shape, owner);
 }
 
-void addField(pcl::PCLPointCloud2& c, const std::string& name, std::uint8_t type, std::uint32_t count = 1)
-{
-  pcl::PCLPointField f;
-  f.name = name;
-  f.datatype = type;
-  f.count = count;
-  f.offset = c.point_step;
-  c.fields.push_back(f);
-  const std::uint32_t size = type == pcl::PCLPointField::FLOAT64 ? 8 : type == pcl::PCLPointField::UINT8 ? 1 : 4;
-  c.point_step += size * count;
-}
-
 /// The records of a cloud with x y z (float32 or float64), and optionally normals (float32),
 /// colours (uint8, 3 or 4 channels: rgb or rgba) and intensity (float32), from numpy arrays.
 pcl::PCLPointCloud2 cloudFrom(nb::ndarray<nb::c_contig, nb::device::cpu> points, nb::object normals,
@@ -65,7 +54,7 @@ pcl::PCLPointCloud2 cloudFrom(nb::ndarray<nb::c_contig, nb::device::cpu> points,
     throw std::invalid_argument("more points than a cloud holds (2^32 - 1)");
   pcl::PCLPointCloud2 c;
   for (const char* a : {"x", "y", "z"})
-    addField(c, a, dbl ? pcl::PCLPointField::FLOAT64 : pcl::PCLPointField::FLOAT32);
+    pcl_ecs::io::appendField(c, a, dbl ? pcl::PCLPointField::FLOAT64 : pcl::PCLPointField::FLOAT32);
   std::optional<Array<const float>> nrm, inten;
   std::optional<Array<const std::uint8_t>> col;
   if (!normals.is_none())
@@ -74,21 +63,21 @@ pcl::PCLPointCloud2 cloudFrom(nb::ndarray<nb::c_contig, nb::device::cpu> points,
     if (nrm->ndim() != 2 || nrm->shape(0) != n || nrm->shape(1) != 3)
       throw std::invalid_argument("normals must be an (N, 3) float32 array, N the number of points");
     for (const char* a : {"normal_x", "normal_y", "normal_z"})
-      addField(c, a, pcl::PCLPointField::FLOAT32);
+      pcl_ecs::io::appendField(c, a, pcl::PCLPointField::FLOAT32);
   }
   if (!colors.is_none())
   {
     col = nb::cast<Array<const std::uint8_t>>(colors);
     if (col->ndim() != 2 || col->shape(0) != n || (col->shape(1) != 3 && col->shape(1) != 4))
       throw std::invalid_argument("colors must be an (N, 3) or (N, 4) uint8 array, N the number of points");
-    addField(c, col->shape(1) == 4 ? "rgba" : "rgb", col->shape(1) == 4 ? pcl::PCLPointField::UINT32 : pcl::PCLPointField::FLOAT32);
+    pcl_ecs::io::appendField(c, col->shape(1) == 4 ? "rgba" : "rgb", col->shape(1) == 4 ? pcl::PCLPointField::UINT32 : pcl::PCLPointField::FLOAT32);
   }
   if (!intensity.is_none())
   {
     inten = nb::cast<Array<const float>>(intensity);
     if (inten->ndim() != 1 || inten->shape(0) != n)
       throw std::invalid_argument("intensity must be an (N,) float32 array, N the number of points");
-    addField(c, "intensity", pcl::PCLPointField::FLOAT32);
+    pcl_ecs::io::appendField(c, "intensity", pcl::PCLPointField::FLOAT32);
   }
   c.width = static_cast<std::uint32_t>(n);
   c.height = 1;

@@ -183,5 +183,11 @@ void convertRecords(const pcl::PCLPointCloud2& cloud, const std::vector<pcl::PCL
   }
 }
 
+std::uint32_t appendField(pcl::PCLPointCloud2& cloud, const std::string& name, std::uint8_t datatype,
+                          std::uint32_t count)
+{
+  return detail::addField(cloud, name, datatype, count);
+}
+
 }  // namespace io
 }  // namespace pcl_ecs

@@ -216,6 +216,8 @@ HeaderView readHeader(const std::string& bytes, std::uint64_t file_size)
   h.record_length = at<std::uint16_t>(bytes, 105);
   if (h.format > 10)
     fail("point format ", h.format, " is not one of LAS 1.4's (0 to 10)");
+  if (h.format > 5 && h.minor < 4)
+    fail("point format ", h.format, " needs LAS 1.4; the header says 1.", int{h.minor});
   if (h.record_length < lasStandardRecordLength(h.format))
     fail("its record length ", h.record_length, " is shorter than point format ", h.format, "'s ",
          lasStandardRecordLength(h.format), " bytes");

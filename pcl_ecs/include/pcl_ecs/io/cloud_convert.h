@@ -31,6 +31,11 @@ std::uint32_t packedFields(const std::vector<pcl::PCLPointField>& fields, std::v
 /** \brief `cloud` with packed records (packedFields); a cloud already packed is copied as is. */
 pcl::PCLPointCloud2 packedCloud(const pcl::PCLPointCloud2& cloud);
 
+/** \brief Append a field of `count` values of `datatype` at the end of `cloud`'s records (the
+ * point step grows by its size; the data is not touched). Returns the field's offset. */
+std::uint32_t appendField(pcl::PCLPointCloud2& cloud, const std::string& name, std::uint8_t datatype,
+                          std::uint32_t count = 1);
+
 /** \brief Copy the record of each point `from[i]` of `src` (a layout `src_fields`) into record i of
  * `dst` (a layout `dst_fields`, `dst_step` bytes each), field by field by name. */
 void copyRecords(const std::uint8_t* src, std::uint32_t src_step, const std::vector<pcl::PCLPointField>& src_fields,
