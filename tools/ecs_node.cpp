@@ -8,6 +8,7 @@
 #include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/feature_aware_cover_simplify.h>
 #include <pcl_ecs/io/cloud_io.h>
+#include <pcl_ecs/io/las_io.h>
 #include <pcl_ecs/stream/out_of_core.h>
 #include <pcl_ecs/io/pcd_stream.h>
 #include <pcl_ecs/version.h>
@@ -76,9 +77,11 @@ the frames in flight, flush the sink, print a summary and exit 0.
 
 Frames on TCP and pipes: an 8-byte little-endian length, then that many bytes holding a complete
 PCD file (any DATA encoding); output frames use the same framing with binary PCD (docs/NODE_PROTOCOL.md).
-A directory source reads *.pcd files in name order once each, when their size has been stable for
-one poll (writers should write to a temporary name and rename); a directory sink writes each output
-to a temporary name and renames it, so a consumer never sees half a frame.
+A directory source reads *.pcd, *.las and *.laz files in name order once each, when their size has
+been stable for one poll (writers should write to a temporary name and rename); a directory sink
+writes each output to a temporary name and renames it, so a consumer never sees half a frame. A
+LAS / LAZ frame goes to a directory sink as LAS / LAZ under its own name, with its header and every
+dimension (docs/LAS.md); to any other sink as binary PCD with every dimension as a field.
 
 )";
 
@@ -406,22 +409,43 @@ private:
   bool closed_ = false;
 };
 
-/// Simplify one frame; throws with the reason when it cannot be parsed or processed.
-Outcome process(const Frame& f, const Parameters& params, std::uint64_t max_bytes)
+/// A frame named *.las / *.laz (a directory source's file), else PCD.
+io::Format frameFormat(const Frame& f)
+{
+  const io::Format format = f.name.empty() ? io::Format::Pcd : io::formatFromPath(f.name);
+  return format == io::Format::Las || format == io::Format::Laz ? format : io::Format::Pcd;
+}
+
+/// Simplify one frame; throws with the reason when it cannot be parsed or processed. A LAS / LAZ
+/// frame is written back as LAS / LAZ with its header when `keep_las` (a directory sink), else as
+/// binary PCD with every LAS dimension as a field (the framing of TCP and pipes carries PCD).
+Outcome process(const Frame& f, const Parameters& params, std::uint64_t max_bytes, bool keep_las)
 {
   if (!f.refused.empty())
     throw std::runtime_error(f.refused);
-  // The header says what the frame decodes to: refused before a compressed frame can expand.
+  const io::Format format = frameFormat(f);
+  pcl::PCLPointCloud2 blob;
+  io::LasInfo las;
+  if (format != io::Format::Pcd)
   {
+    std::uint64_t points = 0, step = 0;
+    io::probeLas(f.bytes.substr(0, 375), f.bytes.size(), points, step);
+    if (points * step > max_bytes)
+      throw std::runtime_error(std::to_string(points) + " points of " + std::to_string(step) +
+                               " bytes exceed --max-frame-bytes " + std::to_string(max_bytes));
+    io::parseLas(f.bytes, blob, &las);
+  }
+  else
+  {
+    // The header says what the frame decodes to: refused before a compressed frame can expand.
     std::istringstream lines(f.bytes.substr(0, std::min<std::size_t>(f.bytes.size(), 64u << 10)));
     const io::PcdHeader h = io::parsePcdHeader([&](std::string& line) { return static_cast<bool>(std::getline(lines, line)); },
                                                std::numeric_limits<std::uint64_t>::max());
     if (h.points * h.point_step > max_bytes)
       throw std::runtime_error(std::to_string(h.points) + " points of " + std::to_string(h.point_step) +
                                " bytes exceed --max-frame-bytes " + std::to_string(max_bytes));
+    io::parsePcd(f.bytes, blob);
   }
-  pcl::PCLPointCloud2 blob;
-  io::parsePcd(f.bytes, blob);
   Outcome out;
   out.name = f.name;
   out.arrived = f.arrived;
@@ -429,7 +453,8 @@ Outcome process(const Frame& f, const Parameters& params, std::uint64_t max_byte
   const tools::CloudRun run = tools::simplifyCloud(blob, params, tools::CloudRunOptions{});
   if (!run.result.error.empty())
     throw std::runtime_error(run.result.error);
-  out.bytes = serializeBinaryPcd(run.output);
+  out.bytes = format != io::Format::Pcd && keep_las ? io::lasBytes(run.output, &las, format == io::Format::Laz)
+                                                    : serializeBinaryPcd(run.output);
   out.points_out = run.result.labels.size();
   out.ok = true;
   return out;
@@ -536,7 +561,9 @@ std::uint64_t runSource(const Options& o, FrameQueue& queue, Stats& stats, ByteB
       for (const auto& entry : fs::directory_iterator(e.path, ec))
       {
         const std::string name = entry.path().filename().string();
-        if (name.empty() || name[0] == '.' || entry.path().extension() != ".pcd" || seen.count(name))
+        const io::Format format = io::formatFromPath(name);
+        if (name.empty() || name[0] == '.' || seen.count(name) ||
+            (format != io::Format::Pcd && format != io::Format::Las && format != io::Format::Laz))
           continue;
         // Regular files only (a symlink is followed): a FIFO, a socket or a dangling link is
         // never a frame, and is skipped instead of waited for.
@@ -687,6 +714,7 @@ int runNode(int argc, char** argv)
   ::sigaction(SIGTERM, &sa, nullptr);
   std::signal(SIGPIPE, SIG_IGN);
 
+  const bool sink_is_dir = snk.kind == Endpoint::Kind::Dir;
   Stats stats;
   ByteBudget budget(o.max_bytes_in_flight);
   Reorder reorder(o.queue);
@@ -699,7 +727,7 @@ int runNode(int argc, char** argv)
       {
         try
         {
-          Outcome out = process(f, o.params, o.max_frame_bytes);
+          Outcome out = process(f, o.params, o.max_frame_bytes, sink_is_dir);
           const std::uint64_t seq = f.seq;
           f = Frame{};  // the input's bytes and its share of the budget go back now
           stats.points_in += out.points_in;

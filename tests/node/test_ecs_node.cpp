@@ -4,6 +4,7 @@
 
 #include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/cloud_io.h>
+#include <pcl_ecs/io/las_io.h>
 
 #include <arpa/inet.h>
 #include <fcntl.h>
@@ -358,6 +359,53 @@ TEST_F(NodeTest, DirectorySourceWithTheLaunchFile)
     EXPECT_EQ(files[static_cast<std::size_t>(i)].filename().string(), "scan_" + std::to_string(100 + i) + ".pcd");
     EXPECT_EQ(frameNumber(slurp(files[static_cast<std::size_t>(i)])), i);
   }
+}
+
+// LAS and LAZ frames from a directory: written back under their names as LAS / LAZ with their
+// header (version, point format, scale, offset) and every dimension (the frame number travels in
+// intensity); a PCD beside them stays PCD.
+TEST_F(NodeTest, DirectorySourceAndSinkKeepLasAndLaz)
+{
+  std::vector<std::string> names;
+  for (int i = 0; i < 4; ++i)
+  {
+    pcl::PCLPointCloud2 blob;
+    pcl_ecs::io::parsePcd(makeFrame(i, 3000), blob);
+    const bool laz = i % 2 == 1 && pcl_ecs::io::lazSupported();
+    names.push_back("scan_" + std::to_string(i) + (i == 3 ? ".pcd" : laz ? ".laz" : ".las"));
+    std::ofstream(dir / "in" / names.back(), std::ios::binary)
+        << (i == 3 ? makeFrame(i, 3000) : pcl_ecs::io::lasBytes(blob, nullptr, laz));
+  }
+  Node node({"--source", "dir:" + (dir / "in").string(), "--sink", "dir:" + (dir / "out").string(), "--once",
+             "--quiet"},
+            (dir / "err.txt").string());
+  int status = 0;
+  ::waitpid(node.pid, &status, 0);
+  node.pid = -1;
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0) << node.stderrText();
+  const auto files = outputs();
+  ASSERT_EQ(files.size(), 4u) << node.stderrText();
+  for (std::size_t i = 0; i < 3; ++i)
+  {
+    EXPECT_EQ(files[i].filename().string(), names[i]);
+    pcl::PCLPointCloud2 in, out;
+    pcl_ecs::io::LasInfo in_info, out_info;
+    pcl_ecs::io::parseLas(slurp(dir / "in" / names[i]), in, &in_info);
+    pcl_ecs::io::parseLas(slurp(files[i]), out, &out_info);
+    EXPECT_EQ(out_info.compressed, in_info.compressed);
+    EXPECT_EQ(out_info.point_format, in_info.point_format);
+    EXPECT_EQ(out_info.scale, in_info.scale);
+    EXPECT_EQ(out_info.offset, in_info.offset);
+    EXPECT_GT(out.width, 0u);
+    EXPECT_LT(out.width, in.width);
+    pcl::PointCloud<pcl::PointXYZI> c;
+    pcl_ecs::io::fromCloud(out, c);
+    for (const auto& p : c)
+      ASSERT_EQ(p.intensity, static_cast<float>(i)) << names[i];
+  }
+  EXPECT_EQ(files[3].filename().string(), "scan_3.pcd");
+  EXPECT_EQ(frameNumber(slurp(files[3])), 3);
 }
 
 TEST_F(NodeTest, EveryLaunchFileParsesAndBadOnesAreRefused)
