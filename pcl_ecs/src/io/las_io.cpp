@@ -2,6 +2,7 @@
 // (the layout is ASPRS LAS 1.4 R15's); LASzip compression is the laz crate's, through the C ABI of
 // rust/ecs_laz.
 #include "io_detail.h"
+#include "las_detail.h"
 
 #include <pcl_ecs/io/las_io.h>
 #include <pcl_ecs/version.h>
@@ -10,26 +11,8 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <map>
 
-#ifdef PCL_ECS_HAVE_LAZ
-extern "C"
-{
-  struct EcsLazBytes
-  {
-    std::uint8_t* data;
-    std::size_t len;
-    std::size_t cap;
-  };
-  int ecs_laz_vlr(std::uint8_t format, std::uint16_t extra_bytes, EcsLazBytes* out, char* err, std::size_t err_cap);
-  int ecs_laz_compress(const std::uint8_t* prefix, std::size_t prefix_len, const std::uint8_t* vlr, std::size_t vlr_len,
-                       const std::uint8_t* records, std::uint64_t count, std::uint16_t record_len, EcsLazBytes* out,
-                       char* err, std::size_t err_cap);
-  int ecs_laz_decompress(const std::uint8_t* file, std::size_t file_len, std::uint64_t point_offset,
-                         const std::uint8_t* vlr, std::size_t vlr_len, std::uint8_t* out, std::uint64_t count,
-                         std::uint16_t record_len, char* err, std::size_t err_cap);
-  void ecs_laz_free(EcsLazBytes* bytes);
-}
-#endif
 
 namespace pcl_ecs
 {
@@ -39,6 +22,7 @@ namespace io
 namespace
 {
 using detail::fail;
+using las::ReadAt;
 using Field = pcl::PCLPointField;
 
 constexpr std::size_t kHeader12 = 227, kHeader13 = 235, kHeader14 = 375, kVlrHeader = 54, kEvlrHeader = 60;
@@ -166,18 +150,6 @@ std::string fixedString(const std::string& bytes, std::size_t offset, std::size_
   return end == std::string::npos ? s : s.substr(0, end);
 }
 
-std::vector<pcl::PCLPointField> cloudFields(int format, std::size_t extra, std::uint32_t& step)
-{
-  pcl::PCLPointCloud2 c;
-  for (const char* a : {"x", "y", "z"})
-    detail::addField(c, a, Field::FLOAT64);
-  for (const Dim& d : dimsOf(format))
-    detail::addField(c, d.name, d.datatype);
-  if (extra > 0)
-    detail::addField(c, "extra_bytes", Field::UINT8, static_cast<std::uint32_t>(extra));
-  step = c.point_step;
-  return c.fields;
-}
 
 struct HeaderView
 {
@@ -248,22 +220,29 @@ HeaderView readHeader(const std::string& bytes, std::uint64_t file_size)
   return h;
 }
 
-void readVlr(const std::string& bytes, std::size_t& pos, std::size_t end, bool extended, LasVlr& v)
+
+void readVlr(const ReadAt& read_at, std::uint64_t& pos, std::uint64_t end, bool extended, LasVlr& v)
 {
   const std::size_t head = extended ? kEvlrHeader : kVlrHeader;
+  const char* what = extended ? "an EVLR" : "a VLR";
+  const char* past = extended ? "the end of the file" : "the point data";
   if (pos + head > end)
-    fail(extended ? "an EVLR" : "a VLR", " at byte ", pos, " runs past ", extended ? "the end of the file" : "the point data");
-  v.reserved = at<std::uint16_t>(bytes, pos);
-  v.user_id = fixedString(bytes, pos + 2, 16);
-  v.record_id = at<std::uint16_t>(bytes, pos + 18);
-  const std::uint64_t len = extended ? at<std::uint64_t>(bytes, pos + 20) : at<std::uint16_t>(bytes, pos + 20);
-  v.description = fixedString(bytes, pos + (extended ? 28 : 22), 32);
+    fail(what, " at byte ", pos, " runs past ", past);
+  const std::string h = read_at(pos, head);
+  if (h.size() < head)
+    fail(what, " at byte ", pos, " runs past the end of the file");
+  v.reserved = at<std::uint16_t>(h, 0);
+  v.user_id = fixedString(h, 2, 16);
+  v.record_id = at<std::uint16_t>(h, 18);
+  const std::uint64_t len = extended ? at<std::uint64_t>(h, 20) : at<std::uint16_t>(h, 20);
+  v.description = fixedString(h, extended ? 28 : 22, 32);
   v.extended = extended;
   if (len > end - pos - head)
-    fail(extended ? "an EVLR" : "a VLR", " at byte ", pos, " declares ", len, " bytes, past ",
-         extended ? "the end of the file" : "the point data");
-  v.data.assign(bytes.begin() + static_cast<std::ptrdiff_t>(pos + head),
-                bytes.begin() + static_cast<std::ptrdiff_t>(pos + head + len));
+    fail(what, " at byte ", pos, " declares ", len, " bytes, past ", past);
+  const std::string data = read_at(pos + head, static_cast<std::size_t>(len));
+  if (data.size() < len)
+    fail(what, " at byte ", pos, " runs past the end of the file");
+  v.data.assign(data.begin(), data.end());
   pos += head + len;
 }
 
@@ -289,6 +268,8 @@ void appendVlr(std::string& out, const LasVlr& v)
   out.append(reinterpret_cast<const char*>(v.data.data()), v.data.size());
 }
 
+bool isLaszip(const LasVlr& v) { return v.user_id == kLaszipUser && v.record_id == kLaszipRecord; }
+
 #ifndef PCL_ECS_HAVE_LAZ
 [[noreturn]] void noLaz()
 {
@@ -312,118 +293,123 @@ bool lazSupported()
 #endif
 }
 
-void probeLas(const std::string& header_bytes, std::uint64_t file_size, std::uint64_t& points,
-              std::uint64_t& point_step)
+namespace las
 {
-  const HeaderView h = readHeader(header_bytes, file_size);
-  std::uint32_t step = 0;
-  cloudFields(h.format, h.record_length - lasStandardRecordLength(h.format), step);
-  points = h.points;
-  point_step = step;
+
+std::vector<pcl::PCLPointField> cloudFields(int format, std::size_t extra, std::uint32_t& step)
+{
+  pcl::PCLPointCloud2 c;
+  for (const char* a : {"x", "y", "z"})
+    detail::addField(c, a, Field::FLOAT64);
+  for (const Dim& d : dimsOf(format))
+    detail::addField(c, d.name, d.datatype);
+  if (extra > 0)
+    detail::addField(c, "extra_bytes", Field::UINT8, static_cast<std::uint32_t>(extra));
+  step = c.point_step;
+  return c.fields;
 }
 
-void parseLas(const std::string& bytes, pcl::PCLPointCloud2& cloud, LasInfo* info)
+Layout readLayout(const std::string& head, std::uint64_t file_size, const ReadAt& read_at, std::uint64_t max_vlr_bytes)
 {
-  const HeaderView h = readHeader(bytes, bytes.size());
-  LasInfo li;
+  const HeaderView h = readHeader(head, file_size);
+  Layout l;
+  l.minor = h.minor;
+  l.header_size = h.header_size;
+  l.point_offset = h.point_offset;
+  l.format = h.format;
+  l.compressed = h.compressed;
+  l.record_length = h.record_length;
+  l.points = h.points;
+  LasInfo& li = l.info;
   li.version_minor = h.minor;
   li.point_format = static_cast<std::uint8_t>(h.format);
   li.record_length = h.record_length;
   li.compressed = h.compressed;
-  li.file_source_id = at<std::uint16_t>(bytes, 4);
-  li.global_encoding = at<std::uint16_t>(bytes, 6);
-  std::memcpy(li.guid.data(), bytes.data() + 8, 16);
-  li.system_identifier = fixedString(bytes, 26, 32);
-  li.generating_software = fixedString(bytes, 58, 32);
-  li.creation_day = at<std::uint16_t>(bytes, 90);
-  li.creation_year = at<std::uint16_t>(bytes, 92);
+  li.file_source_id = at<std::uint16_t>(head, 4);
+  li.global_encoding = at<std::uint16_t>(head, 6);
+  std::memcpy(li.guid.data(), head.data() + 8, 16);
+  li.system_identifier = fixedString(head, 26, 32);
+  li.generating_software = fixedString(head, 58, 32);
+  li.creation_day = at<std::uint16_t>(head, 90);
+  li.creation_year = at<std::uint16_t>(head, 92);
   for (int a = 0; a < 3; ++a)
   {
-    li.scale[a] = at<double>(bytes, 131 + 8 * a);
-    li.offset[a] = at<double>(bytes, 155 + 8 * a);
+    li.scale[a] = at<double>(head, 131 + 8 * a);
+    li.offset[a] = at<double>(head, 155 + 8 * a);
   }
+  std::uint64_t kept = 0;
+  auto keep = [&](LasVlr&& v) {
+    kept += v.data.size();
+    if (kept > max_vlr_bytes)
+      fail("its VLRs and EVLRs hold more than ", max_vlr_bytes >> 20, " MiB, more than this reader keeps");
+    if (isLaszip(v) && !v.extended)
+    {
+      l.laszip = std::move(v.data);
+      l.has_laszip = true;
+    }
+    else
+      li.vlrs.push_back(std::move(v));
+  };
   // VLRs, between the header and the points.
-  std::size_t pos = h.header_size;
-  const LasVlr* laszip = nullptr;
-  std::vector<LasVlr> vlrs(std::min<std::size_t>(h.vlr_count, (h.point_offset - h.header_size) / kVlrHeader + 1));
-  if (h.vlr_count > vlrs.size())
+  if (h.vlr_count > (h.point_offset - h.header_size) / kVlrHeader + 1)
     fail("its header declares ", h.vlr_count, " VLRs; ", h.point_offset - h.header_size, " bytes cannot hold them");
-  for (LasVlr& v : vlrs)
+  std::uint64_t pos = h.header_size;
+  for (std::uint32_t k = 0; k < h.vlr_count; ++k)
   {
-    readVlr(bytes, pos, h.point_offset, false, v);
-    if (v.user_id == kLaszipUser && v.record_id == kLaszipRecord)
-      laszip = &v;
+    LasVlr v;
+    readVlr(read_at, pos, h.point_offset, false, v);
+    keep(std::move(v));
   }
   // EVLRs, after the points (LAS 1.4; in 1.3 the one of the waveform data).
-  std::vector<LasVlr> evlrs;
-  std::uint64_t evlr_start = 0, evlr_count = 0;
   if (h.minor >= 4)
   {
-    evlr_start = at<std::uint64_t>(bytes, 235);
-    evlr_count = at<std::uint32_t>(bytes, 243);
+    l.evlr_start = at<std::uint64_t>(head, 235);
+    l.evlr_count = at<std::uint32_t>(head, 243);
   }
   else if (h.minor == 3 && (li.global_encoding & 2u) != 0)
   {
-    evlr_start = at<std::uint64_t>(bytes, 227);
-    evlr_count = evlr_start != 0 ? 1 : 0;
+    l.evlr_start = at<std::uint64_t>(head, 227);
+    l.evlr_count = l.evlr_start != 0 ? 1 : 0;
   }
-  if (evlr_count > 0)
+  if (l.evlr_count > 0)
   {
-    if (evlr_start < h.point_offset || evlr_start > bytes.size() ||
-        evlr_count > (bytes.size() - evlr_start) / kEvlrHeader)
-      fail("its ", evlr_count, " EVLR(s) at byte ", evlr_start, " are outside the file of ", bytes.size(), " bytes");
-    std::size_t epos = evlr_start;
-    evlrs.resize(evlr_count);
-    for (LasVlr& v : evlrs)
-      readVlr(bytes, epos, bytes.size(), true, v);
+    if (l.evlr_start < h.point_offset || l.evlr_start > file_size ||
+        l.evlr_count > (file_size - l.evlr_start) / kEvlrHeader)
+      fail("its ", l.evlr_count, " EVLR(s) at byte ", l.evlr_start, " are outside the file of ", file_size, " bytes");
+    std::uint64_t epos = l.evlr_start;
+    for (std::uint64_t k = 0; k < l.evlr_count; ++k)
+    {
+      LasVlr v;
+      readVlr(read_at, epos, file_size, true, v);
+      keep(std::move(v));
+    }
+    if (!h.compressed && h.points > 0 && h.point_offset + h.points * h.record_length > l.evlr_start)
+      fail("its points (", h.points, " of ", h.record_length, " bytes from byte ", h.point_offset,
+           ") run into its EVLRs at byte ", l.evlr_start);
   }
+  if (h.compressed && !l.has_laszip)
+    fail("its point format says LAZ but it has no LASzip VLR");
+  return l;
+}
 
-  // The records, raw.
-  const std::size_t n = static_cast<std::size_t>(h.points);
-  std::vector<std::uint8_t> raw;
-  const std::uint8_t* rec = reinterpret_cast<const std::uint8_t*>(bytes.data()) + h.point_offset;
-  if (h.compressed)
-  {
-#ifdef PCL_ECS_HAVE_LAZ
-    if (laszip == nullptr)
-      fail("its point format says LAZ but it has no LASzip VLR");
-    raw.resize(n * h.record_length);
-    char err[512] = {};
-    if (ecs_laz_decompress(reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size(), h.point_offset,
-                           laszip->data.data(), laszip->data.size(), raw.data(), n, h.record_length, err, sizeof err) != 0)
-      fail(err);
-    rec = raw.data();
-#else
-    noLaz();
-#endif
-  }
-  else if (h.points > 0 && evlr_count > 0 && h.point_offset + n * h.record_length > evlr_start)
-    fail("its points (", n, " of ", h.record_length, " bytes from byte ", h.point_offset,
-         ") run into its EVLRs at byte ", evlr_start);
-
-  std::uint32_t step = 0;
-  const std::size_t extra = h.record_length - lasStandardRecordLength(h.format);
-  cloud = pcl::PCLPointCloud2();
-  cloud.fields = cloudFields(h.format, extra, step);
-  cloud.point_step = step;
-  cloud.width = static_cast<std::uint32_t>(n);
-  cloud.height = 1;
-  if (n != cloud.width)
-    fail("it holds ", n, " points, more than a cloud can (2^32 - 1)");
-  cloud.row_step = step * cloud.width;
-  cloud.is_bigendian = false;
-  cloud.data.resize(n * step);
-  const std::vector<Dim> dims = dimsOf(h.format);
+void decodeRecords(const Layout& layout, const std::uint8_t* raw, std::size_t n,
+                   const std::vector<pcl::PCLPointField>& fields, std::uint32_t step, std::uint8_t* dst_records)
+{
+  const std::vector<Dim> dims = dimsOf(layout.format);
+  const std::size_t extra = layout.extra();
+  const std::size_t standard = lasStandardRecordLength(layout.format);
+  const auto& scale = layout.info.scale;
+  const auto& offset = layout.info.offset;
   for (std::size_t i = 0; i < n; ++i)
   {
-    const std::uint8_t* src = rec + i * h.record_length;
-    std::uint8_t* dst = cloud.data.data() + i * step;
+    const std::uint8_t* src = raw + i * layout.record_length;
+    std::uint8_t* dst = dst_records + i * step;
     for (int a = 0; a < 3; ++a)
-      put<double>(dst + 8 * a, static_cast<double>(get<std::int32_t>(src + 4 * a)) * li.scale[a] + li.offset[a]);
+      put<double>(dst + 8 * a, static_cast<double>(get<std::int32_t>(src + 4 * a)) * scale[a] + offset[a]);
     std::size_t f = 3;
     for (const Dim& d : dims)
     {
-      std::uint8_t* out = dst + cloud.fields[f++].offset;
+      std::uint8_t* out = dst + fields[f++].offset;
       if (d.bits == 0)
         std::memcpy(out, src + d.offset, d.size);
       else
@@ -434,134 +420,81 @@ void parseLas(const std::string& bytes, pcl::PCLPointCloud2& cloud, LasInfo* inf
       }
     }
     if (extra > 0)
-      std::memcpy(dst + cloud.fields[f].offset, src + lasStandardRecordLength(h.format), extra);
-  }
-  detail::setDenseFlag(cloud);
-  if (info)
-  {
-    for (LasVlr& v : vlrs)
-      if (!(v.user_id == kLaszipUser && v.record_id == kLaszipRecord))
-        li.vlrs.push_back(std::move(v));
-    for (LasVlr& v : evlrs)
-      li.vlrs.push_back(std::move(v));
-    *info = std::move(li);
+      std::memcpy(dst + fields[f].offset, src + standard, extra);
   }
 }
 
-std::string lasBytes(const pcl::PCLPointCloud2& cloud, const LasInfo* like, bool compressed)
+Encoder::Encoder(const std::vector<pcl::PCLPointField>& fields, std::uint32_t point_step, const LasInfo& info)
+  : fields_(fields), step_(point_step), info_(info)
 {
-#ifndef PCL_ECS_HAVE_LAZ
-  if (compressed)
-    noLaz();
-#endif
-  const std::size_t n = static_cast<std::size_t>(cloud.width) * cloud.height;
+  imin.fill(std::numeric_limits<std::int32_t>::max());
+  imax.fill(std::numeric_limits<std::int32_t>::min());
   auto fieldOf = [&](const char* name) -> const Field* {
-    for (const Field& f : cloud.fields)
+    for (const Field& f : fields_)
       if (f.name == name && f.count >= 1 && detail::datatypeSize(f.datatype) > 0)
         return &f;
     return nullptr;
   };
-  const Field* xyz[3] = {fieldOf("x"), fieldOf("y"), fieldOf("z")};
-  if (!xyz[0] || !xyz[1] || !xyz[2])
+  for (int a = 0; a < 3; ++a)
+    xyz_[a] = fieldOf(a == 0 ? "x" : a == 1 ? "y" : "z");
+  if (!xyz_[0] || !xyz_[1] || !xyz_[2])
     fail("the cloud has no x y z fields");
-  auto coord = [&](std::size_t i, int a) {
-    return detail::loadValue(xyz[a]->datatype, cloud.data.data() + i * cloud.point_step + xyz[a]->offset);
-  };
-
-  LasInfo info;
-  if (like)
-    info = *like;
-  else
-  {
-    const bool colour = fieldOf("rgb") || fieldOf("rgba") || (fieldOf("red") && fieldOf("green") && fieldOf("blue"));
-    const bool time = fieldOf("gps_time") != nullptr;
-    info.point_format = static_cast<std::uint8_t>(colour ? (time ? 3 : 2) : (time ? 1 : 0));
-    info.record_length = static_cast<std::uint16_t>(lasStandardRecordLength(info.point_format));
-    info.version_minor = 2;
-    info.system_identifier = "pcl_ecs";
-    double half = 0.0;
-    std::array<double, 3> lo{{0, 0, 0}}, hi{{0, 0, 0}};
-    for (int a = 0; a < 3; ++a)
-    {
-      lo[a] = std::numeric_limits<double>::infinity();
-      hi[a] = -lo[a];
-      for (std::size_t i = 0; i < n; ++i)
-      {
-        const double v = coord(i, a);
-        if (std::isfinite(v))
-        {
-          lo[a] = std::min(lo[a], v);
-          hi[a] = std::max(hi[a], v);
-        }
-      }
-      info.offset[a] = lo[a] <= hi[a] ? std::floor(0.5 * (lo[a] + hi[a])) : 0.0;
-      if (lo[a] <= hi[a])
-        half = std::max({half, hi[a] - info.offset[a], info.offset[a] - lo[a]});
-    }
-    const double e = std::ceil(std::log10(std::max(half, 1e-300) / 1073741824.0));
-    const double s = std::pow(10.0, std::clamp(e, -12.0, 12.0));
-    info.scale = {s, s, s};
-  }
-  info.generating_software = std::string("pcl_ecs ") + PCL_ECS_VERSION_STRING;
-  const int format = info.point_format;
-  const std::size_t standard = lasStandardRecordLength(format);
+  const std::size_t standard = lasStandardRecordLength(info.point_format);
   if (standard == 0 || info.record_length < standard)
-    fail("point format ", format, " with records of ", info.record_length, " bytes cannot be written");
-  const std::size_t extra = info.record_length - standard;
+    fail("point format ", int{info.point_format}, " with records of ", info.record_length, " bytes cannot be written");
+  packed_rgb_ = fieldOf("rgb") ? fieldOf("rgb") : fieldOf("rgba");
+  extra_field_ = fieldOf("extra_bytes");
+  if (extra_field_ && (extra_field_->datatype != Field::UINT8 || extra_field_->count != info.record_length - standard))
+    extra_field_ = nullptr;
+  for (const Dim& d : dimsOf(info.point_format))
+  {
+    Source s{d.datatype, d.offset, d.size, d.shift, d.bits, fieldOf(d.name), -1};
+    if (!s.field && packed_rgb_ && (std::strcmp(d.name, "red") == 0 || std::strcmp(d.name, "green") == 0 ||
+                                    std::strcmp(d.name, "blue") == 0))
+      s.rgb_shift = d.name[0] == 'r' ? 16 : d.name[0] == 'g' ? 8 : 0;
+    if (s.field || s.rgb_shift >= 0)
+      sources_.push_back(s);
+  }
+}
 
-  // The records.
-  const std::vector<Dim> dims = dimsOf(format);
-  std::vector<const Field*> src_of(dims.size());
-  for (std::size_t k = 0; k < dims.size(); ++k)
-    src_of[k] = fieldOf(dims[k].name);
-  const Field* packed_rgb = fieldOf("rgb") ? fieldOf("rgb") : fieldOf("rgba");
-  const Field* extra_field = fieldOf("extra_bytes");
-  if (extra_field && (extra_field->datatype != Field::UINT8 || extra_field->count != extra))
-    extra_field = nullptr;
-  std::vector<std::uint8_t> records(n * info.record_length, 0);
-  std::array<std::int32_t, 3> imin{{std::numeric_limits<std::int32_t>::max(), std::numeric_limits<std::int32_t>::max(),
-                                    std::numeric_limits<std::int32_t>::max()}};
-  std::array<std::int32_t, 3> imax{{std::numeric_limits<std::int32_t>::min(), std::numeric_limits<std::int32_t>::min(),
-                                    std::numeric_limits<std::int32_t>::min()}};
-  std::array<std::uint64_t, 15> by_return{};
+void Encoder::encode(const std::uint8_t* records, std::size_t n, std::uint64_t first, std::vector<std::uint8_t>& out)
+{
+  const std::size_t len = info_.record_length;
+  const std::size_t standard = lasStandardRecordLength(info_.point_format);
+  const std::size_t base = out.size();
+  out.resize(base + n * len, 0);
   for (std::size_t i = 0; i < n; ++i)
   {
-    const std::uint8_t* src = cloud.data.data() + i * cloud.point_step;
-    std::uint8_t* dst = records.data() + i * info.record_length;
+    const std::uint8_t* src = records + i * step_;
+    std::uint8_t* dst = out.data() + base + i * len;
     for (int a = 0; a < 3; ++a)
     {
-      const double q = std::round((coord(i, a) - info.offset[a]) / info.scale[a]);
+      const double c = detail::loadValue(xyz_[a]->datatype, src + xyz_[a]->offset);
+      const double q = std::round((c - info_.offset[a]) / info_.scale[a]);
       if (!(q >= -2147483648.0 && q <= 2147483647.0))
-        fail("point ", i, "'s ", "xyz"[a], " = ", coord(i, a), " does not fit the LAS scale ", info.scale[a],
-             " and offset ", info.offset[a]);
+        fail("point ", first + i, "'s ", "xyz"[a], " = ", c, " does not fit the LAS scale ", info_.scale[a],
+             " and offset ", info_.offset[a]);
       const auto v = static_cast<std::int32_t>(q);
       put<std::int32_t>(dst + 4 * a, v);
       imin[a] = std::min(imin[a], v);
       imax[a] = std::max(imax[a], v);
     }
-    for (std::size_t k = 0; k < dims.size(); ++k)
+    for (const Source& s : sources_)
     {
-      const Dim& d = dims[k];
-      const Field* f = src_of[k];
+      const Source& d = s;
       double v = 0.0;
-      bool have = f != nullptr;
-      if (f)
-        v = detail::loadValue(f->datatype, src + f->offset);
-      else if (packed_rgb && (std::strcmp(d.name, "red") == 0 || std::strcmp(d.name, "green") == 0 ||
-                              std::strcmp(d.name, "blue") == 0))
+      if (s.field)
+        v = detail::loadValue(s.field->datatype, src + s.field->offset);
+      else
       {
         std::uint32_t p = 0;
-        std::memcpy(&p, src + packed_rgb->offset, 4);
-        const int shift = d.name[0] == 'r' ? 16 : d.name[0] == 'g' ? 8 : 0;
-        v = static_cast<double>((p >> shift) & 0xFFu) * 257.0;
-        have = true;
+        std::memcpy(&p, src + packed_rgb_->offset, 4);
+        v = static_cast<double>((p >> s.rgb_shift) & 0xFFu) * 257.0;
       }
-      if (!have)
-        continue;
       if (d.bits == 0)
       {
-        if (f && f->datatype == d.datatype)
-          std::memcpy(dst + d.offset, src + f->offset, d.size);
+        if (s.field && s.field->datatype == d.datatype)
+          std::memcpy(dst + d.offset, src + s.field->offset, d.size);
         else
           detail::storeValue(v, d.datatype, dst + d.offset);
         continue;
@@ -572,18 +505,42 @@ std::string lasBytes(const pcl::PCLPointCloud2& cloud, const LasInfo* like, bool
       const std::uint64_t old = readUnsigned(dst + d.offset, d.size);
       writeUnsigned(dst + d.offset, d.size, (old & ~mask) | ((u << d.shift) & mask));
     }
-    if (extra_field)
-      std::memcpy(dst + standard, src + extra_field->offset, extra);
-    const unsigned ret = format <= 5 ? (dst[14] & 7u) : (dst[14] & 15u);
+    if (extra_field_)
+      std::memcpy(dst + standard, src + extra_field_->offset, len - standard);
+    const unsigned ret = info_.point_format <= 5 ? (dst[14] & 7u) : (dst[14] & 15u);
     if (ret >= 1 && ret <= 15)
       ++by_return[ret - 1];
   }
+  count_ += n;
+}
 
-  // The header.
+std::vector<std::uint8_t> laszipPayload(const LasInfo& info)
+{
+#ifdef PCL_ECS_HAVE_LAZ
+  EcsLazBytes b{nullptr, 0, 0};
+  char err[512] = {};
+  const std::size_t extra = info.record_length - lasStandardRecordLength(info.point_format);
+  if (ecs_laz_vlr(info.point_format, static_cast<std::uint16_t>(extra), &b, err, sizeof err) != 0)
+    fail("LAZ: ", err);
+  std::vector<std::uint8_t> payload(b.data, b.data + b.len);
+  ecs_laz_free(&b);
+  return payload;
+#else
+  (void)info;
+  noLaz();
+#endif
+}
+
+std::string headerBytes(const LasInfo& info, const Encoder& enc, const std::vector<std::uint8_t>& laszip,
+                        std::vector<LasVlr>& evlrs)
+{
+  const std::uint64_t n = enc.count();
+  const int format = info.point_format;
   const std::size_t header_size = info.version_minor >= 4 ? kHeader14 : info.version_minor == 3 ? kHeader13 : kHeader12;
-  std::vector<LasVlr> vlrs, evlrs;
+  std::vector<LasVlr> vlrs;
+  evlrs.clear();
   for (const LasVlr& v : info.vlrs)
-    if (!(v.user_id == kLaszipUser && v.record_id == kLaszipRecord))
+    if (!isLaszip(v))
       (v.extended && info.version_minor >= 3 ? evlrs : vlrs).push_back(v);
   for (LasVlr& v : vlrs)
   {
@@ -592,24 +549,15 @@ std::string lasBytes(const pcl::PCLPointCloud2& cloud, const LasInfo* like, bool
            " bytes, more than a LAS VLR can");
     v.extended = false;
   }
-#ifdef PCL_ECS_HAVE_LAZ
-  std::vector<std::uint8_t> laszip_payload;
-  if (compressed)
+  if (!laszip.empty())
   {
-    EcsLazBytes b{nullptr, 0, 0};
-    char err[512] = {};
-    if (ecs_laz_vlr(static_cast<std::uint8_t>(format), static_cast<std::uint16_t>(extra), &b, err, sizeof err) != 0)
-      fail("LAZ: ", err);
-    laszip_payload.assign(b.data, b.data + b.len);
-    ecs_laz_free(&b);
     LasVlr v;
     v.user_id = kLaszipUser;
     v.record_id = kLaszipRecord;
     v.description = "laz-rs";
-    v.data = laszip_payload;
-    vlrs.push_back(v);
+    v.data = laszip;
+    vlrs.push_back(std::move(v));
   }
-#endif
   std::string head(header_size, '\0');
   auto* hp = reinterpret_cast<std::uint8_t*>(&head[0]);
   std::memcpy(hp, "LASF", 4);
@@ -624,40 +572,177 @@ std::string lasBytes(const pcl::PCLPointCloud2& cloud, const LasInfo* like, bool
   put<std::uint16_t>(hp + 92, info.creation_year);
   put<std::uint16_t>(hp + 94, static_cast<std::uint16_t>(header_size));
   put<std::uint32_t>(hp + 100, static_cast<std::uint32_t>(vlrs.size()));
-  hp[104] = static_cast<std::uint8_t>(format | (compressed ? 0x80 : 0));
+  hp[104] = static_cast<std::uint8_t>(format | (laszip.empty() ? 0 : 0x80));
   put<std::uint16_t>(hp + 105, info.record_length);
   const bool legacy = format <= 5 && n <= 0xFFFFFFFFull;
   put<std::uint32_t>(hp + 107, legacy ? static_cast<std::uint32_t>(n) : 0u);
   for (int r = 0; r < 5; ++r)
-    put<std::uint32_t>(hp + 111 + 4 * r, legacy ? static_cast<std::uint32_t>(by_return[r]) : 0u);
+    put<std::uint32_t>(hp + 111 + 4 * r, legacy ? static_cast<std::uint32_t>(enc.by_return[r]) : 0u);
   for (int a = 0; a < 3; ++a)
   {
     put<double>(hp + 131 + 8 * a, info.scale[a]);
     put<double>(hp + 155 + 8 * a, info.offset[a]);
-    const double mx = n ? imax[a] * info.scale[a] + info.offset[a] : 0.0;
-    const double mn = n ? imin[a] * info.scale[a] + info.offset[a] : 0.0;
-    put<double>(hp + 179 + 16 * a, mx);
-    put<double>(hp + 187 + 16 * a, mn);
+    put<double>(hp + 179 + 16 * a, n ? enc.imax[a] * info.scale[a] + info.offset[a] : 0.0);
+    put<double>(hp + 187 + 16 * a, n ? enc.imin[a] * info.scale[a] + info.offset[a] : 0.0);
   }
   if (info.version_minor >= 4)
   {
     put<std::uint32_t>(hp + 243, static_cast<std::uint32_t>(evlrs.size()));
     put<std::uint64_t>(hp + 247, n);
     for (int r = 0; r < 15; ++r)
-      put<std::uint64_t>(hp + 255 + 8 * r, by_return[r]);
+      put<std::uint64_t>(hp + 255 + 8 * r, enc.by_return[r]);
   }
   for (const LasVlr& v : vlrs)
     appendVlr(head, v);
   put<std::uint32_t>(reinterpret_cast<std::uint8_t*>(&head[0]) + 96, static_cast<std::uint32_t>(head.size()));
+  return head;
+}
 
+std::string evlrBytes(const std::vector<LasVlr>& evlrs, std::uint64_t at, const LasInfo& info, std::string& head)
+{
+  std::string out;
+  if (evlrs.empty())
+    return out;
+  std::uint64_t waveform = 0;
+  for (const LasVlr& v : evlrs)
+  {
+    if (v.user_id == "LASF_Spec" && v.record_id == 65535 && waveform == 0)
+      waveform = at + out.size();
+    appendVlr(out, v);
+  }
+  auto* hp = reinterpret_cast<std::uint8_t*>(&head[0]);
+  if (info.version_minor >= 4)
+    put<std::uint64_t>(hp + 235, at);
+  if ((info.global_encoding & 2u) != 0)
+    put<std::uint64_t>(hp + 227, waveform);
+  return out;
+}
+
+}  // namespace las
+
+void probeLas(const std::string& header_bytes, std::uint64_t file_size, std::uint64_t& points,
+              std::uint64_t& point_step)
+{
+  const HeaderView h = readHeader(header_bytes, file_size);
+  std::uint32_t step = 0;
+  las::cloudFields(h.format, h.record_length - lasStandardRecordLength(h.format), step);
+  points = h.points;
+  point_step = step;
+}
+
+void parseLas(const std::string& bytes, pcl::PCLPointCloud2& cloud, LasInfo* info)
+{
+  las::Layout l = las::readLayout(bytes, bytes.size(), [&](std::uint64_t offset, std::size_t n) {
+    return offset >= bytes.size() ? std::string() : bytes.substr(static_cast<std::size_t>(offset), n);
+  });
+  const std::size_t n = static_cast<std::size_t>(l.points);
+  if (n > 0xFFFFFFFFull)
+    fail("it holds ", n, " points, more than a cloud can (2^32 - 1)");
+  std::vector<std::uint8_t> raw;
+  const std::uint8_t* rec = reinterpret_cast<const std::uint8_t*>(bytes.data()) + l.point_offset;
+  if (l.compressed)
+  {
+#ifdef PCL_ECS_HAVE_LAZ
+    raw.resize(n * l.record_length);
+    char err[512] = {};
+    if (ecs_laz_decompress(reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size(), l.point_offset,
+                           l.laszip.data(), l.laszip.size(), raw.data(), n, l.record_length, err, sizeof err) != 0)
+      fail(err);
+    rec = raw.data();
+#else
+    noLaz();
+#endif
+  }
+  std::uint32_t step = 0;
+  cloud = pcl::PCLPointCloud2();
+  cloud.fields = las::cloudFields(l.format, l.extra(), step);
+  cloud.point_step = step;
+  cloud.width = static_cast<std::uint32_t>(n);
+  cloud.height = 1;
+  cloud.row_step = step * cloud.width;
+  cloud.is_bigendian = false;
+  cloud.data.resize(n * step);
+  las::decodeRecords(l, rec, n, cloud.fields, step, cloud.data.data());
+  detail::setDenseFlag(cloud);
+  if (info)
+    *info = std::move(l.info);
+}
+
+LasInfo defaultLasInfo(const std::vector<pcl::PCLPointField>& fields, const std::array<double, 3>& lo,
+                       const std::array<double, 3>& hi)
+{
+  auto has = [&](const char* name) {
+    return std::any_of(fields.begin(), fields.end(), [&](const Field& f) { return f.name == name; });
+  };
+  LasInfo info;
+  const bool colour = has("rgb") || has("rgba") || (has("red") && has("green") && has("blue"));
+  const bool time = has("gps_time");
+  info.point_format = static_cast<std::uint8_t>(colour ? (time ? 3 : 2) : (time ? 1 : 0));
+  info.record_length = static_cast<std::uint16_t>(lasStandardRecordLength(info.point_format));
+  info.version_minor = 2;
+  info.system_identifier = "pcl_ecs";
+  double half = 0.0;
+  for (int a = 0; a < 3; ++a)
+  {
+    info.offset[a] = lo[a] <= hi[a] ? std::floor(0.5 * (lo[a] + hi[a])) : 0.0;
+    if (lo[a] <= hi[a])
+      half = std::max({half, hi[a] - info.offset[a], info.offset[a] - lo[a]});
+  }
+  const double e = std::ceil(std::log10(std::max(half, 1e-300) / 1073741824.0));
+  const double s = std::pow(10.0, std::clamp(e, -12.0, 12.0));
+  info.scale = {s, s, s};
+  return info;
+}
+
+std::string lasBytes(const pcl::PCLPointCloud2& cloud, const LasInfo* like, bool compressed)
+{
+#ifndef PCL_ECS_HAVE_LAZ
+  if (compressed)
+    noLaz();
+#endif
+  const std::size_t n = static_cast<std::size_t>(cloud.width) * cloud.height;
+  LasInfo info;
+  if (like)
+    info = *like;
+  else
+  {
+    // The box of the finite points.
+    std::array<double, 3> lo, hi;
+    lo.fill(std::numeric_limits<double>::infinity());
+    hi.fill(-std::numeric_limits<double>::infinity());
+    for (int a = 0; a < 3; ++a)
+    {
+      const Field* f = nullptr;
+      for (const Field& g : cloud.fields)
+        if (g.name == std::string(1, "xyz"[a]) && detail::datatypeSize(g.datatype) > 0)
+          f = &g;
+      for (std::size_t i = 0; f && i < n; ++i)
+      {
+        const double v = detail::loadValue(f->datatype, cloud.data.data() + i * cloud.point_step + f->offset);
+        if (std::isfinite(v))
+        {
+          lo[a] = std::min(lo[a], v);
+          hi[a] = std::max(hi[a], v);
+        }
+      }
+    }
+    info = defaultLasInfo(cloud.fields, lo, hi);
+  }
+  info.generating_software = std::string("pcl_ecs ") + PCL_ECS_VERSION_STRING;
+  las::Encoder enc(cloud.fields, cloud.point_step, info);
+  std::vector<std::uint8_t> records;
+  enc.encode(cloud.data.data(), n, 0, records);
+  const std::vector<std::uint8_t> laszip = compressed ? las::laszipPayload(info) : std::vector<std::uint8_t>();
+  std::vector<LasVlr> evlrs;
+  std::string head = las::headerBytes(info, enc, laszip, evlrs);
   std::string file;
   if (compressed)
   {
 #ifdef PCL_ECS_HAVE_LAZ
     EcsLazBytes b{nullptr, 0, 0};
     char err[512] = {};
-    if (ecs_laz_compress(reinterpret_cast<const std::uint8_t*>(head.data()), head.size(), laszip_payload.data(),
-                         laszip_payload.size(), records.data(), n, info.record_length, &b, err, sizeof err) != 0)
+    if (ecs_laz_compress(reinterpret_cast<const std::uint8_t*>(head.data()), head.size(), laszip.data(), laszip.size(),
+                         records.data(), n, info.record_length, &b, err, sizeof err) != 0)
       fail("LAZ: ", err);
     file.assign(reinterpret_cast<const char*>(b.data), b.len);
     ecs_laz_free(&b);
@@ -665,26 +750,12 @@ std::string lasBytes(const pcl::PCLPointCloud2& cloud, const LasInfo* like, bool
   }
   else
   {
-    file = std::move(head);
+    file = head;
     file.append(reinterpret_cast<const char*>(records.data()), records.size());
   }
-  if (!evlrs.empty())
-  {
-    const std::uint64_t start = file.size();
-    std::uint64_t waveform = 0;
-    for (const LasVlr& v : evlrs)
-    {
-      if (v.user_id == "LASF_Spec" && v.record_id == 65535 && waveform == 0)
-        waveform = file.size();
-      appendVlr(file, v);
-    }
-    auto* fp = reinterpret_cast<std::uint8_t*>(&file[0]);
-    if (info.version_minor >= 4)
-      put<std::uint64_t>(fp + 235, start);
-    if ((info.global_encoding & 2u) != 0)
-      put<std::uint64_t>(fp + 227, waveform);
-  }
-  return file;
+  const std::string tail = las::evlrBytes(evlrs, file.size(), info, head);
+  file.replace(0, head.size(), head);
+  return file + tail;
 }
 
 }  // namespace io

@@ -1,5 +1,6 @@
 //! The LAZ codec of pcl_ecs: the `laz` crate (laz-rs, the LASzip implementation laspy uses through
-//! lazrs) behind a C ABI of four functions. The C++ side (pcl_ecs/src/io/las_io.cpp) reads and
+//! lazrs) behind a small C ABI: whole buffers (`ecs_laz_compress`, `ecs_laz_decompress`) and files
+//! read or written a chunk at a time (`ecs_laz_reader_*`, `ecs_laz_writer_*`, for `--stream`). The C++ side (pcl_ecs/src/io/las_io.cpp) reads and
 //! writes the LAS header, the VLRs and the point records; this library only turns raw LAS point
 //! records into LASzip-compressed bytes and back.
 //!
@@ -9,7 +10,9 @@
 
 use laz::laszip::ChunkTable;
 use laz::{LasZipCompressor, LasZipDecompressor, LazItemRecordBuilder, LazItemType, LazVlr, LazVlrBuilder};
-use std::io::{Cursor, Seek, SeekFrom};
+use std::ffi::CStr;
+use std::fs::{File, OpenOptions};
+use std::io::{BufReader, BufWriter, Cursor, Read, Seek, SeekFrom, Write};
 use std::os::raw::{c_char, c_int};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -159,53 +162,87 @@ pub extern "C" fn ecs_laz_decompress(
                 if total == 0 { &mut [][..] } else { std::slice::from_raw_parts_mut(out, total) },
             )
         };
-        let vlr_bytes = vlr;
-        let vlr = LazVlr::from_buffer(vlr).map_err(|e| format!("its LASzip VLR is invalid: {e}"))?;
-        if vlr.items_size() != record_len as u64 {
-            return Err(format!(
-                "its LASzip VLR describes {}-byte records, the header {record_len}",
-                vlr.items_size()
-            ));
-        }
-        check_chunk_table(file, point_offset, count, &vlr)?;
-        if vlr_bytes.len() >= 2 && u16::from_le_bytes([vlr_bytes[0], vlr_bytes[1]]) == 3 {
-            check_layers(file, point_offset, count, record_len, &vlr)?;
-        }
-        let mut cursor = Cursor::new(file);
-        cursor.seek(SeekFrom::Start(point_offset)).map_err(|e| e.to_string())?;
-        let mut d = LasZipDecompressor::new(cursor, vlr).map_err(|e| format!("its compressed points are truncated or corrupt ({e})"))?;
+        let mut d = checked_decompressor(Cursor::new(file), file.len() as u64, point_offset, vlr, count, record_len)?;
         // In steps, so that an error can say where the data ends.
         const STEP: usize = 50_000;
-        let mut done = 0usize;
+        let mut done = 0u64;
         for chunk in out.chunks_mut(STEP * record_len as usize) {
-            d.decompress_many(chunk).map_err(|e| {
-                format!(
-                    "its compressed points are truncated or corrupt after about {done} of {count} points ({e})"
-                )
-            })?;
-            done += chunk.len() / record_len as usize;
+            decompress_step(&mut d, chunk, done, count)?;
+            done += (chunk.len() / record_len as usize) as u64;
         }
         Ok(())
     })
 }
 
-fn i64_at(file: &[u8], at: u64) -> Option<i64> {
-    let at = usize::try_from(at).ok()?;
-    let bytes = file.get(at..at.checked_add(8)?)?;
-    Some(i64::from_le_bytes(bytes.try_into().ok()?))
+/// A decompressor for the `count` records of `record_len` bytes at `point_offset` of `src` (`len`
+/// bytes), after the checks that keep a corrupt file from making the codec allocate what the file
+/// cannot hold.
+fn checked_decompressor<'a, R: Read + Seek + Send + Sync + 'a>(
+    mut src: R,
+    len: u64,
+    point_offset: u64,
+    vlr_bytes: &[u8],
+    count: u64,
+    record_len: u16,
+) -> Result<LasZipDecompressor<'a, R>, String> {
+    let vlr = LazVlr::from_buffer(vlr_bytes).map_err(|e| format!("its LASzip VLR is invalid: {e}"))?;
+    if vlr.items_size() != record_len as u64 {
+        return Err(format!(
+            "its LASzip VLR describes {}-byte records, the header {record_len}",
+            vlr.items_size()
+        ));
+    }
+    check_chunk_table(&mut src, len, point_offset, count, &vlr)?;
+    if vlr_bytes.len() >= 2 && u16::from_le_bytes([vlr_bytes[0], vlr_bytes[1]]) == 3 {
+        check_layers(&mut src, len, point_offset, count, record_len, &vlr)?;
+    }
+    src.seek(SeekFrom::Start(point_offset)).map_err(|e| e.to_string())?;
+    LasZipDecompressor::new(src, vlr).map_err(|e| format!("its compressed points are truncated or corrupt ({e})"))
+}
+
+fn decompress_step<'a, R: Read + Seek + Send + Sync + 'a>(
+    d: &mut LasZipDecompressor<'a, R>,
+    out: &mut [u8],
+    done: u64,
+    count: u64,
+) -> Result<(), String> {
+    d.decompress_many(out).map_err(|e| {
+        format!("its compressed points are truncated or corrupt after about {done} of {count} points ({e})")
+    })
+}
+
+/// `N` bytes at `at` of a source of `len` bytes, or None past its end.
+fn bytes_at<R: Read + Seek, const N: usize>(src: &mut R, len: u64, at: u64) -> Option<[u8; N]> {
+    if at.checked_add(N as u64)? > len {
+        return None;
+    }
+    src.seek(SeekFrom::Start(at)).ok()?;
+    let mut b = [0u8; N];
+    src.read_exact(&mut b).ok()?;
+    Some(b)
+}
+
+fn i64_at<R: Read + Seek>(src: &mut R, len: u64, at: u64) -> Option<i64> {
+    bytes_at::<R, 8>(src, len, at).map(i64::from_le_bytes)
 }
 
 /// The chunk table's count of chunks, checked before the codec sizes its table by it: a file whose
 /// table claims more chunks than its points can fill is corrupt (the codec would allocate 16 bytes
 /// a claimed chunk first). The table is found as the codec finds it (the offset at the start of the
 /// point data, else the last 8 bytes of the file).
-fn check_chunk_table(file: &[u8], point_offset: u64, count: u64, vlr: &LazVlr) -> Result<(), String> {
-    let mut table = match i64_at(file, point_offset) {
+fn check_chunk_table<R: Read + Seek>(
+    src: &mut R,
+    len: u64,
+    point_offset: u64,
+    count: u64,
+    vlr: &LazVlr,
+) -> Result<(), String> {
+    let mut table = match i64_at(src, len, point_offset) {
         Some(t) => t,
         None => return Ok(()), // the codec says the data is missing
     };
     if table <= point_offset as i64 {
-        table = match i64_at(file, (file.len() as u64).saturating_sub(8)) {
+        table = match i64_at(src, len, len.saturating_sub(8)) {
             Some(t) => t,
             None => return Ok(()),
         };
@@ -213,7 +250,7 @@ fn check_chunk_table(file: &[u8], point_offset: u64, count: u64, vlr: &LazVlr) -
             return Ok(());
         }
     }
-    let chunks = match i64_at(file, table as u64) {
+    let chunks = match i64_at(src, len, table as u64) {
         Some(v) => (v as u64) >> 32, // version (u32), then the number of chunks (u32)
         None => return Ok(()),
     };
@@ -230,17 +267,22 @@ fn check_chunk_table(file: &[u8], point_offset: u64, count: u64, vlr: &LazVlr) -
     Ok(())
 }
 
-fn u32_at(file: &[u8], at: u64) -> Option<u32> {
-    let at = usize::try_from(at).ok()?;
-    let bytes = file.get(at..at.checked_add(4)?)?;
-    Some(u32::from_le_bytes(bytes.try_into().ok()?))
+fn u32_at<R: Read + Seek>(src: &mut R, len: u64, at: u64) -> Option<u32> {
+    bytes_at::<R, 4>(src, len, at).map(u32::from_le_bytes)
 }
 
 /// The layer sizes of every chunk of a layered (LAS 1.4 point formats 6-10) LAZ, checked against
 /// the chunk's bytes before the codec allocates a buffer of each size it reads (up to 4 GiB a
 /// layer from a corrupt file). A chunk is its first point raw, its point count, one size per
 /// layer, then the layers.
-fn check_layers(file: &[u8], point_offset: u64, count: u64, record_len: u16, vlr: &LazVlr) -> Result<(), String> {
+fn check_layers<R: Read + Seek>(
+    src: &mut R,
+    len: u64,
+    point_offset: u64,
+    count: u64,
+    record_len: u16,
+    vlr: &LazVlr,
+) -> Result<(), String> {
     let layers: u64 = vlr
         .items()
         .iter()
@@ -253,11 +295,10 @@ fn check_layers(file: &[u8], point_offset: u64, count: u64, record_len: u16, vlr
         })
         .sum();
     let fixed = !vlr.uses_variable_size_chunks();
-    let mut cursor = Cursor::new(file);
-    cursor.seek(SeekFrom::Start(point_offset)).map_err(|e| e.to_string())?;
+    src.seek(SeekFrom::Start(point_offset)).map_err(|e| e.to_string())?;
     // The codec reads the chunks one after the other; the table (when there is one) says how many
     // bytes each may take.
-    let table = match ChunkTable::read_from(&mut cursor, vlr) {
+    let table = match ChunkTable::read_from(&mut *src, vlr) {
         Ok(t) => Some(t),
         Err(_) if fixed => None,
         Err(e) => return Err(format!("its compressed points have no readable chunk table ({e})")),
@@ -276,10 +317,10 @@ fn check_layers(file: &[u8], point_offset: u64, count: u64, record_len: u16, vlr
         let sizes = pos + u64::from(record_len) + 4;
         let mut sum = 0u64;
         for l in 0..layers {
-            sum += u64::from(u32_at(file, sizes + 4 * l).ok_or_else(|| corrupt(k))?);
+            sum += u64::from(u32_at(src, len, sizes + 4 * l).ok_or_else(|| corrupt(k))?);
         }
         let end = sizes + 4 * layers + sum;
-        if end > file.len() as u64 {
+        if end > len {
             return Err(corrupt(k));
         }
         if let Some(e) = entry {
@@ -292,6 +333,170 @@ fn check_layers(file: &[u8], point_offset: u64, count: u64, record_len: u16, vlr
         k += 1;
     }
     Ok(())
+}
+
+/// A LAZ file's points read a chunk at a time (`ecs_laz_reader_*`): the file is opened here and
+/// read as the points are asked for, so memory does not grow with the file.
+pub struct EcsLazReader {
+    d: LasZipDecompressor<'static, BufReader<File>>,
+    count: u64,
+    done: u64,
+    record_len: u16,
+}
+
+unsafe fn path_of(path: *const c_char) -> Result<String, String> {
+    if path.is_null() {
+        return Err("no path".into());
+    }
+    CStr::from_ptr(path).to_str().map(str::to_owned).map_err(|_| "the path is not UTF-8".into())
+}
+
+/// Opens the `count` compressed records of `record_len` bytes at `point_offset` of the file at
+/// `path` (NUL-terminated), described by the payload of its LASzip VLR. The same checks as
+/// `ecs_laz_decompress` run first. On success `*reader` is set; free it with `ecs_laz_reader_close`.
+#[no_mangle]
+pub extern "C" fn ecs_laz_reader_open(
+    path: *const c_char,
+    point_offset: u64,
+    vlr: *const u8,
+    vlr_len: usize,
+    count: u64,
+    record_len: u16,
+    reader: *mut *mut EcsLazReader,
+    err: *mut c_char,
+    err_cap: usize,
+) -> c_int {
+    run(err, err_cap, || {
+        // SAFETY: the caller gives a NUL-terminated path and the length of its buffer.
+        let (path, vlr) = unsafe { (path_of(path)?, slice(vlr, vlr_len)) };
+        let file = File::open(&path).map_err(|e| format!("cannot open it ({e})"))?;
+        let len = file.metadata().map_err(|e| e.to_string())?.len();
+        let d = checked_decompressor(BufReader::new(file), len, point_offset, vlr, count, record_len)?;
+        let r = Box::new(EcsLazReader { d, count, done: 0, record_len });
+        // SAFETY: `reader` is a valid pointer given by the caller.
+        unsafe { *reader = Box::into_raw(r) };
+        Ok(())
+    })
+}
+
+/// Decompresses the next `n` records into `out` (`n * record_len` bytes). Asking past the count
+/// the header declared is an error.
+#[no_mangle]
+pub extern "C" fn ecs_laz_reader_read(
+    reader: *mut EcsLazReader,
+    out: *mut u8,
+    n: u64,
+    err: *mut c_char,
+    err_cap: usize,
+) -> c_int {
+    run(err, err_cap, || {
+        // SAFETY: `reader` came from ecs_laz_reader_open and is not shared.
+        let r = unsafe { reader.as_mut().ok_or("no reader")? };
+        if n > r.count - r.done {
+            return Err(format!("{n} points asked, {} left", r.count - r.done));
+        }
+        let total = usize::try_from(n)
+            .ok()
+            .and_then(|c| c.checked_mul(r.record_len as usize))
+            .ok_or("too many points")?;
+        // SAFETY: the caller gives `n * record_len` writable bytes.
+        let out = if total == 0 { &mut [][..] } else { unsafe { std::slice::from_raw_parts_mut(out, total) } };
+        decompress_step(&mut r.d, out, r.done, r.count)?;
+        r.done += n;
+        Ok(())
+    })
+}
+
+/// Frees a reader (and closes its file).
+#[no_mangle]
+pub extern "C" fn ecs_laz_reader_close(reader: *mut EcsLazReader) {
+    if !reader.is_null() {
+        // SAFETY: made by Box::into_raw in ecs_laz_reader_open, freed once.
+        drop(unsafe { Box::from_raw(reader) });
+    }
+}
+
+/// LAZ points written a chunk at a time (`ecs_laz_writer_*`) after the header and VLRs that the
+/// caller has already written to the file.
+pub struct EcsLazWriter {
+    c: LasZipCompressor<'static, BufWriter<File>>,
+}
+
+/// Opens the file at `path` (which holds the LAS header and VLRs, its length the offset of the
+/// point data) to append records compressed with the LASzip VLR payload `vlr`.
+#[no_mangle]
+pub extern "C" fn ecs_laz_writer_open(
+    path: *const c_char,
+    vlr: *const u8,
+    vlr_len: usize,
+    writer: *mut *mut EcsLazWriter,
+    err: *mut c_char,
+    err_cap: usize,
+) -> c_int {
+    run(err, err_cap, || {
+        // SAFETY: the caller gives a NUL-terminated path and the length of its buffer.
+        let (path, vlr) = unsafe { (path_of(path)?, slice(vlr, vlr_len)) };
+        let vlr = LazVlr::from_buffer(vlr).map_err(|e| e.to_string())?;
+        let mut file = OpenOptions::new().read(true).write(true).open(&path).map_err(|e| format!("cannot open it ({e})"))?;
+        file.seek(SeekFrom::End(0)).map_err(|e| e.to_string())?;
+        let c = LasZipCompressor::new(BufWriter::with_capacity(1 << 20, file), vlr).map_err(|e| e.to_string())?;
+        let w = Box::new(EcsLazWriter { c });
+        // SAFETY: `writer` is a valid pointer given by the caller.
+        unsafe { *writer = Box::into_raw(w) };
+        Ok(())
+    })
+}
+
+/// Compresses `count` records of `record_len` bytes.
+#[no_mangle]
+pub extern "C" fn ecs_laz_writer_write(
+    writer: *mut EcsLazWriter,
+    records: *const u8,
+    count: u64,
+    record_len: u16,
+    err: *mut c_char,
+    err_cap: usize,
+) -> c_int {
+    run(err, err_cap, || {
+        // SAFETY: `writer` came from ecs_laz_writer_open and is not shared.
+        let w = unsafe { writer.as_mut().ok_or("no writer")? };
+        if w.c.vlr().items_size() != record_len as u64 {
+            return Err(format!("the LASzip items describe {}-byte records, not {record_len}", w.c.vlr().items_size()));
+        }
+        let total = usize::try_from(count)
+            .ok()
+            .and_then(|c| c.checked_mul(record_len as usize))
+            .ok_or("too many points")?;
+        // SAFETY: the caller gives the length of its buffer.
+        let records = unsafe { slice(records, total) };
+        w.c.compress_many(records).map_err(|e| format!("write error ({e})"))
+    })
+}
+
+/// Ends the compressed data (the last chunk and the chunk table), flushes the file and frees the
+/// writer. The file ends with the chunk table: the caller may append EVLRs after it.
+#[no_mangle]
+pub extern "C" fn ecs_laz_writer_finish(writer: *mut EcsLazWriter, err: *mut c_char, err_cap: usize) -> c_int {
+    if writer.is_null() {
+        return run(err, err_cap, || Err("no writer".into()));
+    }
+    // SAFETY: made by Box::into_raw in ecs_laz_writer_open, freed once (here).
+    let mut w = unsafe { Box::from_raw(writer) };
+    run(err, err_cap, move || {
+        w.c.done().map_err(|e| format!("write error ({e})"))?;
+        let mut out = w.c.into_inner();
+        out.seek(SeekFrom::End(0)).map_err(|e| format!("write error ({e})"))?;
+        out.flush().map_err(|e| format!("write error ({e})"))
+    })
+}
+
+/// Frees a writer without finishing its file (after an error).
+#[no_mangle]
+pub extern "C" fn ecs_laz_writer_free(writer: *mut EcsLazWriter) {
+    if !writer.is_null() {
+        // SAFETY: made by Box::into_raw in ecs_laz_writer_open, freed once.
+        drop(unsafe { Box::from_raw(writer) });
+    }
 }
 
 /// Frees bytes given by this library.

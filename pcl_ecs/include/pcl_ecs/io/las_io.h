@@ -22,6 +22,8 @@
 
 #include <array>
 #include <cstdint>
+#include <fstream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -91,6 +93,68 @@ std::string lasBytes(const pcl::PCLPointCloud2& cloud, const LasInfo* like, bool
 
 /** \brief True when LAZ can be read and written (the library was built with the laz crate). */
 bool lazSupported();
+
+/** \brief The header lasBytes gives a cloud without a LAS origin whose fields are `fields` and
+ * whose finite points lie in the box [lo, hi]: point format 0-3, version 1.2, offset the box
+ * centre rounded down to an integer, scale the finest power of ten that holds the box in 31-bit
+ * integers. */
+LasInfo defaultLasInfo(const std::vector<pcl::PCLPointField>& fields, const std::array<double, 3>& lo,
+                       const std::array<double, 3>& hi);
+
+/** \brief The points of a LAS or LAZ file a chunk at a time, in the layout parseLas gives them
+ * (for files larger than memory: `pcd_simplify --stream`). Memory: one chunk and the header's
+ * VLRs and EVLRs (at most 256 MiB of them). */
+class LasStreamReader
+{
+public:
+  /** \brief Open `path` and read its header, VLRs and EVLRs. Throws FileError or FormatError
+   * (prefixed with the path), as readCloud does for the same file. */
+  explicit LasStreamReader(const std::string& path);
+  ~LasStreamReader();
+  LasStreamReader(const LasStreamReader&) = delete;
+  LasStreamReader& operator=(const LasStreamReader&) = delete;
+
+  const std::vector<pcl::PCLPointField>& fields() const { return fields_; }
+  std::uint32_t pointStep() const { return step_; }
+  std::uint64_t points() const;
+  const LasInfo& info() const;
+  /** \brief Points not read yet. */
+  std::uint64_t remaining() const;
+  /** \brief Read up to `max_points` records into `records` (resized to count × pointStep());
+   * returns the count, 0 at the end. Throws FormatError for corrupt or truncated data. */
+  std::size_t read(std::size_t max_points, std::vector<std::uint8_t>& records);
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  std::vector<pcl::PCLPointField> fields_;
+  std::uint32_t step_ = 0;
+};
+
+/** \brief Writes a LAS or LAZ file chunk by chunk: a temporary file beside `path` whose header
+ * (counts, bounds) is completed on commit(), then renamed into place. Without commit() nothing
+ * appears at `path`. The file is the one lasBytes(cloud of all the records, &info, compressed)
+ * gives. */
+class LasStreamWriter
+{
+public:
+  LasStreamWriter(const std::string& path, const std::vector<pcl::PCLPointField>& fields,
+                  std::uint32_t point_step, const LasInfo& info, bool compressed);
+  ~LasStreamWriter();
+  LasStreamWriter(const LasStreamWriter&) = delete;
+  LasStreamWriter& operator=(const LasStreamWriter&) = delete;
+
+  /** \brief Append `n` records (point_step bytes each, in the layout `fields`). Throws FileError
+   * or FormatError (a coordinate that does not fit the scale and offset). */
+  void append(const std::uint8_t* records, std::size_t n);
+  std::uint64_t written() const;
+  /** \brief Complete the header, flush, rename into place. Throws FileError. */
+  void commit();
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace io
 }  // namespace pcl_ecs
