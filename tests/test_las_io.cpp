@@ -6,6 +6,10 @@
 #include <pcl_ecs/io/las_io.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <unistd.h>
 #include <cstring>
 #include <sstream>
 
@@ -176,4 +180,73 @@ TEST(LasIo, SixtyFourBitIntegersKeepEveryBitThroughPcd)
     EXPECT_EQ(back.fields[3].datatype, Field::UINT64);
     EXPECT_EQ(back.fields[4].datatype, Field::INT64);
   }
+}
+
+TEST(LasIo, ChunkedWritingAndReadingGiveTheWholeFileFunctionsBytesAndPoints)
+{
+  const pcl::PCLPointCloud2 cloud = utmCloud(120001);  // more than two LAZ chunks of 50,000
+  const auto dir = std::filesystem::temp_directory_path() / ("pcl_ecs_las_chunks_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  for (const bool laz : {false, true})
+  {
+    if (laz && !io::lazSupported())
+      continue;
+    // A LAS 1.4 header with a CRS VLR and an EVLR, as a file read from elsewhere would have.
+    pcl::PCLPointCloud2 read;
+    io::LasInfo info;
+    io::parseLas(io::lasBytes(cloud, nullptr, laz), read, &info);
+    info.version_minor = 4;
+    io::LasVlr crs;
+    crs.user_id = "LASF_Projection";
+    crs.record_id = 2112;
+    crs.data.assign(100, 'w');
+    io::LasVlr evlr = crs;
+    evlr.user_id = "pcl_ecs_test";
+    evlr.extended = true;
+    evlr.data.assign(70000, 'e');  // more than a VLR holds
+    info.vlrs = {crs, evlr};
+    const std::string whole = io::lasBytes(read, &info, laz);
+
+    const std::string path = (dir / (laz ? "c.laz" : "c.las")).string();
+    {
+      io::LasStreamWriter w(path, read.fields, read.point_step, info, laz);
+      for (std::size_t at = 0; at < read.width; at += 7777)
+      {
+        const std::size_t n = std::min<std::size_t>(7777, read.width - at);
+        w.append(read.data.data() + at * read.point_step, n);
+      }
+      EXPECT_EQ(w.written(), read.width);
+      EXPECT_FALSE(std::filesystem::exists(path)) << "nothing at the path before commit()";
+      w.commit();
+    }
+    std::ifstream f(path, std::ios::binary);
+    const std::string chunked((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    EXPECT_TRUE(chunked == whole) << (laz ? "LAZ" : "LAS") << ": " << chunked.size() << " vs " << whole.size() << " bytes";
+
+    io::LasStreamReader r(path);
+    EXPECT_EQ(r.points(), read.width);
+    EXPECT_EQ(r.pointStep(), read.point_step);
+    EXPECT_EQ(r.info().vlrs.size(), 2u);
+    std::vector<std::uint8_t> all, chunk;
+    while (r.read(10007, chunk) > 0)
+      all.insert(all.end(), chunk.begin(), chunk.end());
+    EXPECT_EQ(r.remaining(), 0u);
+    EXPECT_TRUE(all == read.data) << (laz ? "LAZ" : "LAS");
+
+    // Cut short: refused with the path, at open (the EVLRs are gone) or where the points run out.
+    std::filesystem::resize_file(path, chunked.size() - 70000 - 60 - (laz ? 40000 : 400000));
+    try
+    {
+      io::LasStreamReader cut(path);
+      while (cut.read(10007, chunk) > 0)
+      {
+      }
+      ADD_FAILURE() << "a cut file read to the end";
+    }
+    catch (const io::FormatError& e)
+    {
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+  }
+  std::filesystem::remove_all(dir);
 }

@@ -4,7 +4,7 @@
 #include "common/cli.h"
 
 #include <pcl_ecs/io/cloud_convert.h>
-#include <pcl_ecs/io/pcd_stream.h>
+#include <pcl_ecs/io/record_stream.h>
 #include <pcl_ecs/version.h>
 
 #include <algorithm>
@@ -26,13 +26,15 @@ using namespace pcl_ecs::tools;
 
 namespace
 {
-const char* kUsage = R"(Usage: pcd_make_scan MESH OUTPUT.pcd --points N [options]
+const char* kUsage = R"(Usage: pcd_make_scan MESH OUTPUT --points N [options]
 
 Writes N points sampled on MESH (PLY) as S simulated range scans from scanner
 positions spread around the model: a scan sees a face with density proportional to
 |cos(incidence)| / distance², so the point density varies across the surface and the scans overlap.
-Fields: x y z intensity (float; intensity = |cos(incidence)|) and scan (uint8). Memory does not grow
-with N: the points are written in chunks of 65536.
+OUTPUT is .pcd (fields x y z intensity, float, intensity = |cos(incidence)|, and scan, uint8) or
+.las / .laz (LAS 1.2 point format 0: intensity = |cos(incidence)| × 65535, point_source_id = the
+scan, scale the finest power of ten that holds the box). Memory does not grow with N: the points
+are written in chunks of 65536.
 
 Options:
   --points N     number of points (required; 1 to 2^40)
@@ -47,6 +49,7 @@ Options:
 
 Example:
   pcd_make_scan ../shared/data/bunny_mesh.ply big.pcd --points 50000000 --scans 8
+  pcd_make_scan ../shared/data/bunny_mesh.ply big.laz --points 50000000 --scale 100 --offset 512000 4100000 200
 )";
 
 struct Tri
@@ -94,7 +97,7 @@ int run(int argc, char** argv)
       pos.push_back(a);
   }
   if (pos.size() != 2)
-    throw UsageError("expected MESH and OUTPUT.pcd (see --help)");
+    throw UsageError("expected MESH and OUTPUT (see --help)");
   if (points == 0 || points > (1ull << 40))
     throw UsageError("--points: give a count from 1 to 2^40");
   if (scans < 1 || scans > 255)
@@ -103,8 +106,10 @@ int run(int argc, char** argv)
     throw UsageError("--noise: must be in [0, 0.1)");
   if (!(scale > 0.0) || !std::isfinite(scale) || !offset.allFinite())
     throw UsageError("--scale / --offset: must be finite (scale > 0)");
-  if (io::formatFromPath(pos[1]) != io::Format::Pcd)
-    throw UsageError(pos[1] + ": the output must be .pcd");
+  const io::Format format = io::formatFromPath(pos[1]);
+  const bool las = format == io::Format::Las || format == io::Format::Laz;
+  if (format != io::Format::Pcd && !las)
+    throw UsageError(pos[1] + ": the output must be .pcd, .las or .laz");
   const std::string why = io::checkWritable(pos[1]);
   if (!why.empty())
     throw ToolError(kExitOutput, pos[1] + ": " + why);
@@ -172,18 +177,33 @@ int run(int argc, char** argv)
     }
   }
 
-  std::vector<pcl::PCLPointField> fields(5);
-  const char* names[5] = {"x", "y", "z", "intensity", "scan"};
-  for (std::uint32_t f = 0; f < 5; ++f)
+  // PCD: x y z intensity as float, scan as uint8 (17 bytes); LAS: x y z as double, intensity and
+  // point_source_id as uint16 (28 bytes).
+  using Field = pcl::PCLPointField;
+  io::PcdHeader layout;
+  const auto add = [&](const char* name, std::uint8_t type, std::uint32_t size) {
+    Field f;
+    f.name = name;
+    f.offset = layout.point_step;
+    f.datatype = type;
+    f.count = 1;
+    layout.fields.push_back(f);
+    layout.point_step += size;
+  };
+  for (const char* a : {"x", "y", "z"})
+    add(a, las ? Field::FLOAT64 : Field::FLOAT32, las ? 8 : 4);
+  add("intensity", las ? Field::UINT16 : Field::FLOAT32, las ? 2 : 4);
+  add(las ? "point_source_id" : "scan", las ? Field::UINT16 : Field::UINT8, las ? 2 : 1);
+  const std::uint32_t step = layout.point_step;
+  // A box that holds every point (the mesh's, widened by 20 standard deviations of the noise).
+  const double margin = 20.0 * noise * diag * scale + 1e-9 * diag * scale;
+  std::array<double, 3> box_lo, box_hi;
+  for (int a = 0; a < 3; ++a)
   {
-    fields[f].name = names[f];
-    fields[f].offset = 4 * f;
-    fields[f].datatype = f < 4 ? pcl::PCLPointField::FLOAT32 : pcl::PCLPointField::UINT8;
-    fields[f].count = 1;
+    box_lo[a] = lo[a] * scale + offset[a] - margin;
+    box_hi[a] = hi[a] * scale + offset[a] + margin;
   }
-  const std::uint32_t step = 17;
-  std::array<double, 7> viewpoint{{0, 0, 0, 1, 0, 0, 0}};
-  io::PcdStreamWriter writer(pos[1], fields, step, viewpoint);
+  io::RecordSink writer(pos[1], layout, nullptr, box_lo, box_hi);
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> uni(0.0, 1.0);
   std::normal_distribution<double> gauss(0.0, 1.0);
@@ -213,10 +233,22 @@ int run(int argc, char** argv)
       const double incidence = std::abs(tri.n.dot(ray));
       p += noise * diag * gauss(rng) * ray;
       p = p * scale + offset;
-      const float rec[4] = {static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()),
+      std::uint8_t* rec = buf.data() + i * step;
+      if (las)
+      {
+        const double xyz[3] = {p.x(), p.y(), p.z()};
+        const std::uint16_t v[2] = {static_cast<std::uint16_t>(std::lround(incidence * 65535.0)),
+                                    static_cast<std::uint16_t>(s)};
+        std::memcpy(rec, xyz, 24);
+        std::memcpy(rec + 24, v, 4);
+      }
+      else
+      {
+        const float v[4] = {static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()),
                             static_cast<float>(incidence)};
-      std::memcpy(buf.data() + i * step, rec, 16);
-      buf[i * step + 16] = static_cast<std::uint8_t>(s);
+        std::memcpy(rec, v, 16);
+        rec[16] = static_cast<std::uint8_t>(s);
+      }
     }
     writer.append(buf.data(), n);
     done += n;

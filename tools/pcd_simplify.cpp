@@ -9,6 +9,7 @@
 #include <pcl_ecs/io/cloud_io.h>
 #include <pcl_ecs/io/las_io.h>
 #include <pcl_ecs/io/pcd_stream.h>
+#include <pcl_ecs/io/record_stream.h>
 #include <pcl_ecs/stream/out_of_core.h>
 #include <pcl_ecs/version.h>
 
@@ -56,13 +57,14 @@ OUTPUT  .pcd (binary by default), .ply, .las or .laz. Every field of the input i
 const char* kOptions = R"(Size instead of T_err:
   --target-ratio R    aim at R × the finite input points, R in (0, 1]
 
-Scans larger than memory (PCD in, binary PCD out; docs/STREAMING.md):
+Scans larger than memory (PCD, LAS or LAZ in and out, PCD binary; docs/STREAMING.md):
   --stream            simplify out of core: the scan is split into tiles (with a halo of
                       neighbours) in a scratch directory and processed tile by tile, two at a
                       time; the statistics the method takes over the whole cloud stay global.
                       Progress on stderr. Killed? Run the same command again: it resumes from
                       the finished tiles. Takes --terr (not a target size); all fields of the
-                      input are kept. Output depends on --memory-limit (the tiling), not on
+                      input are kept (a LAS / LAZ output keeps a LAS input's header, scale
+                      and offset). Output depends on --memory-limit (the tiling), not on
                       --threads. The gap bound (--max-gap) holds across tiles as in memory.
   --memory-limit SIZE memory budget, e.g. 512M, 2G (default: a quarter of the RAM, >= 256M)
   --scratch DIR       scratch directory (default OUTPUT.ecs-scratch); in an existing directory
@@ -214,12 +216,14 @@ Options parseArgs(int argc, char** argv, bool& done)
     if (o.target_ratio > 0.0 || o.params.target_size > 0)
       throw UsageError("--stream takes --terr, not a target size (see docs/STREAMING.md)");
     if (!o.features.empty() || o.labels || !o.mesh.empty() || o.encoding_given)
-      throw UsageError("--stream writes one binary PCD; --features, --labels, --mesh, --ascii and "
+      throw UsageError("--stream writes one file; --features, --labels, --mesh, --ascii and "
                        "--compressed are for in-memory runs");
     if (o.params.use_input_normals)
       throw UsageError("--stream estimates the normals; --use-input-normals is for in-memory runs");
-    if (io::formatFromPath(o.input) != io::Format::Pcd || io::formatFromPath(o.output) != io::Format::Pcd)
-      throw UsageError("--stream reads and writes .pcd files");
+    for (const std::string* f : {&o.input, &o.output})
+      if (!io::isRecordFormat(*f))
+        throw UsageError(std::string("--stream reads and writes .pcd, .las and .laz files; the ") +
+                         (f == &o.input ? "input" : "output") + " is not one");
   }
   else if (o.memory_limit || !o.scratch.empty() || o.keep_scratch || o.kill_after || o.tile_points)
     throw UsageError("--memory-limit, --scratch, --keep-scratch and --tile-points need --stream");
@@ -453,7 +457,7 @@ int runTool(int argc, char** argv)
                     "%s: %llu points need about %.1f GiB in memory; %.1f GiB are available%s",
                     o.input.c_str(), static_cast<unsigned long long>(probe.points), need / (1u << 30),
                     available / (1u << 30),
-                    io::formatFromPath(o.input) == io::Format::Pcd ? ": use --stream (docs/STREAMING.md)" : "");
+                    io::isRecordFormat(o.input) ? ": use --stream (docs/STREAMING.md)" : "");
       throw ToolError(kExitInput, line);
     }
   }

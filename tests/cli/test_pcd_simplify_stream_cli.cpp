@@ -5,6 +5,7 @@
 
 #include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/cloud_io.h>
+#include <pcl_ecs/io/las_io.h>
 #include <pcl_ecs/io/pcd_stream.h>
 
 #include <cmath>
@@ -166,6 +167,51 @@ TEST_F(StreamCli, PeakMemoryStaysUnderTheLimit)
   pcl_ecs::io::PcdStreamReader out(path("out.pcd"));
   EXPECT_GE(out.header().fieldIndex("intensity"), 0);
   EXPECT_GE(out.header().fieldIndex("scan"), 0);
+}
+
+TEST_F(StreamCli, LazInputIsReadInChunksAndGivesWhatItsPointsGiveAsPcd)
+{
+  // A UTM-sized LAZ scan; the same records (as pcl_ecs reads them in memory) as a binary PCD.
+  const std::string laz = makeScan("scan.laz", kSanitized ? 200000 : 2000000,
+                                   "--scans 4 --scale 100 --offset 512000 4100000 200");
+  pcl::PCLPointCloud2 cloud;
+  pcl_ecs::io::LasInfo info;
+  ASSERT_TRUE(pcl_ecs::io::readCloud(laz, cloud, &info));
+  EXPECT_TRUE(info.compressed);
+  pcl_ecs::io::writeCloud(path("scan.pcd"), pcl_ecs::io::Format::Pcd, cloud, pcl_ecs::io::Encoding::Binary);
+  const std::string flags = " --stream --memory-limit 128M --quiet";
+  const RunResult from_laz = runTool(kSimplify, laz + " " + path("a.pcd") + flags);
+  ASSERT_EQ(from_laz.code, 0) << from_laz.err;
+  if (!kSanitized)
+    EXPECT_LT(from_laz.peak_rss_kib, 128L * 1024) << "peak RSS " << from_laz.peak_rss_kib / 1024 << " MiB";
+  const RunResult from_pcd = runTool(kSimplify, path("scan.pcd") + " " + path("b.pcd") + flags);
+  ASSERT_EQ(from_pcd.code, 0) << from_pcd.err;
+  EXPECT_TRUE(slurp(path("a.pcd")) == slurp(path("b.pcd"))) << "the LAZ input gives what its points give";
+
+  // LAZ out: the input's header, scale and offset; the same points to the scale.
+  const RunResult to_laz = runTool(kSimplify, laz + " " + path("a.laz") + flags);
+  ASSERT_EQ(to_laz.code, 0) << to_laz.err;
+  pcl::PCLPointCloud2 out_laz, out_pcd;
+  pcl_ecs::io::LasInfo out_info;
+  ASSERT_TRUE(pcl_ecs::io::readCloud(path("a.laz"), out_laz, &out_info));
+  pcl_ecs::io::readCloud(path("a.pcd"), out_pcd);
+  EXPECT_EQ(out_info.scale, info.scale);
+  EXPECT_EQ(out_info.offset, info.offset);
+  ASSERT_EQ(out_laz.width, out_pcd.width);
+  ASSERT_EQ(out_laz.point_step, out_pcd.point_step);
+  for (std::size_t i = 0; i < out_laz.width; ++i)
+  {
+    const std::uint8_t* a = out_laz.data.data() + i * out_laz.point_step;
+    const std::uint8_t* b = out_pcd.data.data() + i * out_pcd.point_step;
+    for (int k = 0; k < 3; ++k)
+    {
+      double u, v;
+      std::memcpy(&u, a + 8 * k, 8);
+      std::memcpy(&v, b + 8 * k, 8);
+      ASSERT_LE(std::abs(u - v), 0.5 * info.scale[k] * (1 + 1e-6) + 1e-9 * std::abs(v)) << "point " << i;
+    }
+    ASSERT_EQ(std::memcmp(a + 24, b + 24, out_laz.point_step - 24), 0) << "point " << i << "'s other dimensions";
+  }
 }
 
 TEST_F(StreamCli, RefusalsLeaveNothingBehind)

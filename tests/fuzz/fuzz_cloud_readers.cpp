@@ -2,18 +2,47 @@
 // the rest is the file. Any input must either parse or throw FormatError; a crash, a sanitizer report or an
 // allocation beyond the RSS limit is a bug. What parses is also converted to a point type (every
 // field type through io::fromCloud) and written as PCD, which must parse again to the same
-// packed records. A PLY or LAS header's probe must agree with the parser; a LAS file read is
-// written again as LAS (or LAZ), which must parse to the same points.
+// packed records. A PLY or LAS header's probe must agree with the parser, and so must the chunked
+// LAS reader; a LAS file read is written again as LAS (or LAZ), which must parse to the same points.
 #include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/cloud_io.h>
 #include <pcl_ecs/io/las_io.h>
 
 #include <cstddef>
 #include <cstdint>
+#include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
+
+#include <unistd.h>
 
 #include <pcl/point_types.h>
+
+namespace
+{
+/// `bytes` as a file read by LasStreamReader in chunks of 777 points; false when it is refused.
+bool readInChunks(const std::string& bytes, std::vector<std::uint8_t>& records)
+{
+  static const std::string path = "/tmp/pcl_ecs_fuzz_" + std::to_string(::getpid()) + ".las";
+  {
+    std::ofstream f(path, std::ios::binary | std::ios::trunc);
+    f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  }
+  try
+  {
+    pcl_ecs::io::LasStreamReader r(path);
+    std::vector<std::uint8_t> chunk;
+    while (r.read(777, chunk) > 0)
+      records.insert(records.end(), chunk.begin(), chunk.end());
+    return true;
+  }
+  catch (const pcl_ecs::io::FormatError&)
+  {
+    return false;
+  }
+}
+}  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
 {
@@ -64,8 +93,23 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       // the copies below would pass the RSS limit.
       if (probe_ok && probed * step > (32u << 20))
         return 0;
+      // The chunked reader (--stream's) must agree with the whole-file parser: the same records, or
+      // a refusal of what the parser refuses.
+      std::vector<std::uint8_t> chunked;
+      const bool chunked_ok = readInChunks(bytes, chunked);
       pcl_ecs::io::LasInfo info;
-      pcl_ecs::io::parseLas(bytes, cloud, &info);
+      try
+      {
+        pcl_ecs::io::parseLas(bytes, cloud, &info);
+      }
+      catch (const pcl_ecs::io::FormatError&)
+      {
+        if (chunked_ok)
+          __builtin_trap();
+        throw;
+      }
+      if (!chunked_ok || chunked != cloud.data)
+        __builtin_trap();
       if (!probe_ok || probed != cloud.width || step != cloud.point_step)
         __builtin_trap();
       std::string las;

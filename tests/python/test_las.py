@@ -90,9 +90,9 @@ def check_output(inp, out, stats):
     assert moved.max() < 3.0, "a representative stands near its source"
 
 
-def simplify(tools, tmp_path, src, dst):
+def simplify(tools, tmp_path, src, dst, *flags):
     stats = tmp_path / "stats.json"
-    r = subprocess.run([str(tools / "pcd_simplify"), str(src), str(dst), "--quiet", "--stats", str(stats)],
+    r = subprocess.run([str(tools / "pcd_simplify"), str(src), str(dst), "--quiet", "--stats", str(stats), *flags],
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     return json.loads(stats.read_text())
@@ -117,6 +117,24 @@ def test_laz_round_trip_keeps_every_dimension(tools, tmp_path, version, fmt):
     plain = laspy.read(tmp_path / "out.las")
     assert not plain.header.are_points_compressed
     assert np.asarray(plain.points.array).tobytes() == np.asarray(out.points.array).tobytes()
+
+
+@pytest.mark.parametrize("version,fmt,ext", [("1.2", 3, "laz"), ("1.3", 1, "las"), ("1.4", 6, "laz"),
+                                             ("1.4", 10, "las")])
+def test_stream_reads_and_writes_las_and_laz_keeping_every_dimension(tools, tmp_path, version, fmt, ext):
+    """--stream reads the input a chunk at a time and writes the output the same way, in tiles."""
+    inp = make_input(tmp_path / f"in.{ext}", version, fmt, extra=fmt == 6)
+    stats = simplify(tools, tmp_path, tmp_path / f"in.{ext}", tmp_path / f"out.{ext}",
+                     "--stream", "--tile-points", "4000")
+    assert len(stats["tiles"]["list"]) >= 2
+    out = laspy.read(tmp_path / f"out.{ext}")
+    assert out.header.are_points_compressed == (ext == "laz")
+    check_output(inp, out, stats)
+    # The same points in the other encoding.
+    other = "las" if ext == "laz" else "laz"
+    simplify(tools, tmp_path, tmp_path / f"in.{ext}", tmp_path / f"out.{other}", "--stream", "--tile-points", "4000")
+    assert np.asarray(laspy.read(tmp_path / f"out.{other}").points.array).tobytes() == \
+        np.asarray(out.points.array).tobytes()
 
 
 def test_pcd_to_las_gets_a_scale_that_keeps_the_coordinates(tools, tmp_path):

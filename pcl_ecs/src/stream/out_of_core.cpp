@@ -1,7 +1,7 @@
 // The out-of-core path: see out_of_core.h and docs/STREAMING.md.
 #include <pcl_ecs/stream/out_of_core.h>
 
-#include <pcl_ecs/io/pcd_stream.h>
+#include <pcl_ecs/io/record_stream.h>
 #include <pcl_ecs/neighborhood.h>
 #include <pcl_ecs/search/box_tree_search.h>
 #include <pcl_ecs/simplify_core.h>
@@ -28,6 +28,7 @@
 #include <iomanip>
 #include <limits>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <numeric>
 #include <sstream>
@@ -687,13 +688,10 @@ private:
     constexpr std::uint64_t kStep = 8ull << 20;
     return std::to_string((needed + kStep + kStep - 1) / kStep * (kStep >> 20)) + "M";
   }
-  void scanAndPlan(io::PcdStreamReader& reader);
-  /// A binary regular file is read again by the split; anything else is copied to scratch once.
-  bool readTwice() const
-  {
-    std::error_code ec;
-    return header_.data == io::PcdData::Binary && fs::is_regular_file(input_, ec);
-  }
+  void scanAndPlan(io::RecordSource& reader);
+  /// A binary PCD in a regular file is read again by the split; anything else is copied to scratch
+  /// once.
+  bool readTwice() const { return records_in_input_; }
   void split();
   TileData loadTile(int t) const;
   void phaseA(int t);
@@ -724,8 +722,11 @@ private:
   /// (page faults in its libraries) and the plan (sample, tile size, halo) follows the memory it
   /// may use, so the rounding keeps one input, one limit and one seed to one plan and one output.
   std::uint64_t baseline_bytes_ = 0;
-  /// The input as the scan read it: where a binary input's records start, its size and time.
+  /// The input as the scan read it: whether its records can be read again from it and where they
+  /// start, its size and time, its LAS header (for a LAS / LAZ input).
+  bool records_in_input_ = false;
   std::uint64_t data_offset_ = 0;
+  std::unique_ptr<io::LasInfo> las_;
   FileStamp input_stamp_;
   /// Σ measure over the own points of the tiles phase A has finished in this run.
   double measure_done_ = 0.0;
@@ -738,7 +739,7 @@ private:
   std::array<int, 3> normal_fields_{{-1, -1, -1}};  // normal_x/y/z in the records, -1: absent
 };
 
-void Runner::scanAndPlan(io::PcdStreamReader& reader)
+void Runner::scanAndPlan(io::RecordSource& reader)
 {
   const auto t0 = Clock::now();
   header_ = reader.header();
@@ -814,7 +815,6 @@ void Runner::scanAndPlan(io::PcdStreamReader& reader)
       failRun("cannot write " + copy_tmp + " (disk full?)");
     fs::rename(copy_tmp, paths_.points());
   }
-  data_offset_ = reader.dataOffset();
   plan_.input_points = header_.points;
   plan_.finite_points = finite;
   plan_.lo = lo;
@@ -1801,7 +1801,8 @@ void Runner::runStage(const char* name, int index, const std::vector<int>& todo,
 void Runner::writeOutput()
 {
   const auto t0 = Clock::now();
-  io::PcdStreamWriter writer(output_, header_.fields, header_.point_step, header_.viewpoint);
+  io::RecordSink writer(output_, header_, las_.get(), {{plan_.lo.x(), plan_.lo.y(), plan_.lo.z()}},
+                       {{plan_.hi.x(), plan_.hi.y(), plan_.hi.z()}});
   std::vector<std::uint8_t> buf(static_cast<std::size_t>(header_.point_step) * kChunk);
   for (std::size_t t = 0; t < plan_.tree.tiles.size(); ++t)
   {
@@ -1856,8 +1857,11 @@ StreamSummary Runner::run()
       fingerprintOf(input_, params_, memory_limit_) + " tile=" + std::to_string(options_.max_tile_points);
   // The header first: bad input is refused before any work. The same reader then does the scan
   // (the input is opened and read once).
-  io::PcdStreamReader reader(input_);
+  io::RecordSource reader(input_);
   header_ = reader.header();
+  records_in_input_ = reader.recordsInFile(data_offset_);
+  if (reader.las())
+    las_ = std::make_unique<io::LasInfo>(*reader.las());
   input_stamp_ = stampOf(input_);
   // The limit is a promise: refused at once when this process cannot keep to it.
   constexpr std::uint64_t kBaselineStep = 16ull << 20;

@@ -77,6 +77,8 @@ public:
   /** \brief The byte where the data starts: for `DATA binary`, record i is the point_step bytes at
    * dataOffset() + i × point_step. */
   std::uint64_t dataOffset() const { return data_offset_; }
+  /** \brief A regular file (not a pipe or FIFO, which are read once, as they come). */
+  bool seekable() const { return seekable_; }
 
 private:
   class Decoder;

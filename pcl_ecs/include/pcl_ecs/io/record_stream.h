@@ -1,0 +1,80 @@
+// record_stream.h — the points of a PCD, LAS or LAZ file as binary records, a chunk at a time, and
+// records written to a PCD, LAS or LAZ file a chunk at a time: the input and output of the
+// out-of-core run (`pcd_simplify --stream`), whatever the files' formats.
+//
+// Records are described by a PcdHeader (fields, point_step, count): a PCD file's own layout, or
+// for LAS / LAZ the layout parseLas gives (x y z as double, one field per dimension).
+#pragma once
+
+#include <pcl_ecs/io/las_io.h>
+#include <pcl_ecs/io/pcd_stream.h>
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace pcl_ecs
+{
+namespace io
+{
+
+/** \brief Reads a PCD (PcdStreamReader), LAS or LAZ file (LasStreamReader), chosen by its
+ * extension. */
+class RecordSource
+{
+public:
+  /** \brief Open `path` and read its header. Throws FileError (also for a format other than
+   * PCD, LAS and LAZ) or FormatError, prefixed with the path. */
+  explicit RecordSource(const std::string& path);
+  ~RecordSource();
+  RecordSource(const RecordSource&) = delete;
+  RecordSource& operator=(const RecordSource&) = delete;
+
+  const PcdHeader& header() const { return header_; }
+  /** \brief Read up to `max_points` records into `records`; returns the count, 0 at the end. */
+  std::size_t read(std::size_t max_points, std::vector<std::uint8_t>& records);
+  /** \brief True when the file stores the records as read() gives them, record i at byte
+   * `offset` + i × point_step (a binary PCD that is a regular file), so they can be read again
+   * from the file itself. */
+  bool recordsInFile(std::uint64_t& offset) const;
+  /** \brief The LAS header of a LAS or LAZ input, else nullptr. */
+  const LasInfo* las() const;
+
+private:
+  PcdHeader header_;
+  std::unique_ptr<PcdStreamReader> pcd_;
+  std::unique_ptr<LasStreamReader> las_;
+};
+
+/** \brief Writes records to a binary PCD (PcdStreamWriter), LAS or LAZ file (LasStreamWriter),
+ * chosen by the extension of `path`; nothing appears at `path` before commit(). */
+class RecordSink
+{
+public:
+  /** \param[in] layout the records' fields and point_step (and the PCD viewpoint)
+   * \param[in] las for LAS / LAZ: the header of the file the records came from (its format,
+   *   scale, offset and VLRs are kept); nullptr: defaultLasInfo(layout's fields, lo, hi)
+   * \param[in] lo, hi a box that holds every point written (used without `las`)
+   * Throws FileError for another extension or when the file cannot be created. */
+  RecordSink(const std::string& path, const PcdHeader& layout, const LasInfo* las, const std::array<double, 3>& lo,
+             const std::array<double, 3>& hi);
+  ~RecordSink();
+  RecordSink(const RecordSink&) = delete;
+  RecordSink& operator=(const RecordSink&) = delete;
+
+  void append(const std::uint8_t* records, std::size_t n);
+  std::uint64_t written() const;
+  void commit();
+
+private:
+  std::unique_ptr<PcdStreamWriter> pcd_;
+  std::unique_ptr<LasStreamWriter> las_;
+};
+
+/** \brief True when `path`'s extension is one RecordSource reads and RecordSink writes. */
+bool isRecordFormat(const std::string& path);
+
+}  // namespace io
+}  // namespace pcl_ecs
