@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
-from typing import Any, Dict, Optional, Tuple
+from typing import Any, Dict, Mapping, Optional, Tuple
 
 import numpy as np
 
@@ -118,11 +118,25 @@ def read(path: str) -> Dict[str, np.ndarray]:
     return _core._read(str(path))
 
 
-def write(path: str, points: Any, *, normals: Any = None, colors: Any = None, intensity: Any = None) -> None:
+def write(path: str, points: Any, *, normals: Any = None, colors: Any = None, intensity: Any = None,
+          fields: Optional[Mapping[str, Any]] = None) -> None:
     """Write points (and normals, uint8 colours, intensity) as .pcd, .ply, .las or .laz, by the
-    file name. The file appears only when complete."""
+    file name. The file appears only when complete.
+
+    `fields` adds any other per-point values by name: (N,) or (N, count) arrays of integers or
+    floats, each kept as its own type in PCD and PLY (what `read` gives back); in LAS / LAZ the
+    names of LAS dimensions (classification, gps_time, return_number, point_source_id, ...) go to
+    those dimensions and others are not written (docs/LAS.md)."""
+    extra = None
+    if fields is not None:
+        extra = {}
+        for name, values in fields.items():
+            a = np.ascontiguousarray(values)
+            if a.dtype == np.bool_:
+                a = a.astype(np.uint8)
+            extra[str(name)] = a
     _core._write(str(path), _as_points(points), _optional(normals, np.float32), _optional(colors, np.uint8),
-                 _optional(intensity, np.float32))
+                 _optional(intensity, np.float32), extra)
 
 
 def reconstruct(points: Any) -> Tuple[np.ndarray, np.ndarray]:

@@ -2,7 +2,7 @@
 # library's (pcl_ecs::Parameters); tests/python/test_python_api.py checks that they agree.
 from dataclasses import dataclass
 from os import PathLike
-from typing import Any, Dict, Literal, Optional, Tuple, Union
+from typing import Any, Dict, Literal, Mapping, Optional, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -74,5 +74,6 @@ def write(
     normals: Optional[npt.ArrayLike] = None,
     colors: Optional[npt.ArrayLike] = None,
     intensity: Optional[npt.ArrayLike] = None,
+    fields: Optional[Mapping[str, npt.ArrayLike]] = None,
 ) -> None: ...
 def reconstruct(points: npt.ArrayLike) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]: ...

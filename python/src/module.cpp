@@ -39,10 +39,26 @@ nb::ndarray<nb::numpy, T> owned(std::vector<T>&& v, std::initializer_list<std::s
   return nb::ndarray<nb::numpy, T>(heap->data(), shape, owner);
 }
 
+/// The PCL datatype of a numpy array's element type, or 0 for one PCL has not.
+std::uint8_t pclType(const nb::dlpack::dtype& t)
+{
+  static const std::pair<nb::dlpack::dtype, std::uint8_t> types[] = {
+      {nb::dtype<std::int8_t>(), pcl::PCLPointField::INT8},     {nb::dtype<std::uint8_t>(), pcl::PCLPointField::UINT8},
+      {nb::dtype<std::int16_t>(), pcl::PCLPointField::INT16},   {nb::dtype<std::uint16_t>(), pcl::PCLPointField::UINT16},
+      {nb::dtype<std::int32_t>(), pcl::PCLPointField::INT32},   {nb::dtype<std::uint32_t>(), pcl::PCLPointField::UINT32},
+      {nb::dtype<std::int64_t>(), pcl::PCLPointField::INT64},   {nb::dtype<std::uint64_t>(), pcl::PCLPointField::UINT64},
+      {nb::dtype<float>(), pcl::PCLPointField::FLOAT32},        {nb::dtype<double>(), pcl::PCLPointField::FLOAT64}};
+  for (const auto& [dt, type] : types)
+    if (dt == t)
+      return type;
+  return 0;
+}
+
 /// The records of a cloud with x y z (float32 or float64), and optionally normals (float32),
-/// colours (uint8, 3 or 4 channels: rgb or rgba) and intensity (float32), from numpy arrays.
+/// colours (uint8, 3 or 4 channels: rgb or rgba), intensity (float32) and any other fields (a dict
+/// of name -> (N,) or (N, count) arrays of a numeric type, kept as that type), from numpy arrays.
 pcl::PCLPointCloud2 cloudFrom(nb::ndarray<nb::c_contig, nb::device::cpu> points, nb::object normals,
-                              nb::object colors, nb::object intensity)
+                              nb::object colors, nb::object intensity, nb::object fields = nb::none())
 {
   if (points.ndim() != 2 || points.shape(1) != 3)
     throw std::invalid_argument("points must be an (N, 3) array");
@@ -79,6 +95,35 @@ pcl::PCLPointCloud2 cloudFrom(nb::ndarray<nb::c_contig, nb::device::cpu> points,
       throw std::invalid_argument("intensity must be an (N,) float32 array, N the number of points");
     pcl_ecs::io::appendField(c, "intensity", pcl::PCLPointField::FLOAT32);
   }
+  struct Extra
+  {
+    nb::ndarray<nb::c_contig, nb::device::cpu> array;
+    std::uint32_t offset;
+    std::size_t bytes;  // a point's
+  };
+  std::vector<Extra> extra;
+  if (!fields.is_none())
+  {
+    for (auto [key, value] : nb::cast<nb::dict>(fields))
+    {
+      const std::string name = nb::cast<std::string>(key);
+      nb::ndarray<nb::c_contig, nb::device::cpu> a;
+      const bool numeric = nb::try_cast(value, a);
+      const std::uint8_t type = numeric ? pclType(a.dtype()) : 0;
+      if (name.empty() || name.find_first_of(" \t\n\r") != std::string::npos)
+        throw std::invalid_argument("fields: a field name must be a word without spaces, not '" + name + "'");
+      for (const pcl::PCLPointField& f : c.fields)
+        if (f.name == name)
+          throw std::invalid_argument("fields: '" + name + "' is given twice (it is one of the points' own fields)");
+      if (type == 0)
+        throw std::invalid_argument("fields: '" + name + "' must hold integers or floats of 8 to 64 bits");
+      if ((a.ndim() != 1 && a.ndim() != 2) || a.shape(0) != n || (a.ndim() == 2 && a.shape(1) == 0))
+        throw std::invalid_argument("fields: '" + name + "' must be an (N,) or (N, count) array, N the number of points");
+      const std::uint32_t count = a.ndim() == 2 ? static_cast<std::uint32_t>(a.shape(1)) : 1u;
+      const std::uint32_t offset = pcl_ecs::io::appendField(c, name, type, count);
+      extra.push_back({a, offset, a.itemsize() * count});
+    }
+  }
   c.width = static_cast<std::uint32_t>(n);
   c.height = 1;
   c.row_step = c.point_step * c.width;
@@ -105,6 +150,8 @@ pcl::PCLPointCloud2 cloudFrom(nb::ndarray<nb::c_contig, nb::device::cpu> points,
     }
     if (inten)
       std::memcpy(rec + at, inten->data() + i, 4);
+    for (const Extra& e : extra)
+      std::memcpy(rec + e.offset, static_cast<const std::uint8_t*>(e.array.data()) + i * e.bytes, e.bytes);
   }
   c.is_dense = false;
   return c;
@@ -237,12 +284,12 @@ nb::dict readFile(const std::string& path)
 }
 
 void writeFile(const std::string& path, nb::ndarray<nb::c_contig, nb::device::cpu> points, nb::object normals,
-           nb::object colors, nb::object intensity)
+               nb::object colors, nb::object intensity, nb::object fields)
 {
   const pcl_ecs::io::Format format = pcl_ecs::io::formatFromPath(path);
   if (format == pcl_ecs::io::Format::Unknown || format == pcl_ecs::io::Format::Xyz)
     throw nb::value_error((path + ": the file name must end in .pcd, .ply, .las or .laz").c_str());
-  const pcl::PCLPointCloud2 cloud = cloudFrom(points, normals, colors, intensity);
+  const pcl::PCLPointCloud2 cloud = cloudFrom(points, normals, colors, intensity, fields);
   try
   {
     pcl_ecs::io::AtomicOutput out(path);
@@ -321,6 +368,7 @@ NB_MODULE(_core, m)
   m.def("_simplify", &simplify, "points"_a, "normals"_a.none(), "colors"_a.none(), "intensity"_a.none(),
         "params"_a, "target_ratio"_a);
   m.def("_read", &readFile, "path"_a);
-  m.def("_write", &writeFile, "path"_a, "points"_a, "normals"_a.none(), "colors"_a.none(), "intensity"_a.none());
+  m.def("_write", &writeFile, "path"_a, "points"_a, "normals"_a.none(), "colors"_a.none(), "intensity"_a.none(),
+        "fields"_a.none());
   m.def("_reconstruct", &reconstruct, "points"_a);
 }

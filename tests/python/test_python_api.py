@@ -142,6 +142,46 @@ def test_read_write_round_trip(tmp_path):
         pcl_ecs.read(tmp_path / "bad.las")
 
 
+def test_write_keeps_any_named_field(tmp_path):
+    pts = sphere_with_cap(2000)
+    n = len(pts)
+    rng = np.random.default_rng(5)
+    fields = {
+        "classification": rng.integers(0, 32, n).astype(np.uint8),
+        "gps_time": rng.uniform(0, 1e6, n),
+        "point_source_id": rng.integers(0, 65536, n).astype(np.uint16),
+        "label": rng.integers(-2**31, 2**31, n).astype(np.int32),
+        "big": rng.integers(0, 2**63, n, dtype=np.uint64),
+        "descriptor": rng.standard_normal((n, 5)).astype(np.float32),
+        "flag": rng.integers(0, 2, n).astype(bool),
+    }
+    for name in ("f.pcd", "f.ply"):
+        pcl_ecs.write(tmp_path / name, pts, fields=fields)
+        back = pcl_ecs.read(tmp_path / name)
+        for k, v in fields.items():
+            if v.ndim == 2 and name.endswith(".ply"):  # PLY: one property per column, NAME_i
+                got = np.stack([back[f"{k}_{c}"] for c in range(v.shape[1])], axis=1)
+            else:
+                got = back[k]
+            if name.endswith(".ply") and k == "big":
+                assert np.array_equal(got, v.astype(np.float64)), "PLY has no 64-bit integers: a double"
+                continue
+            assert np.array_equal(got, v.astype(np.uint8) if v.dtype == bool else v), (name, k)
+    # LAS: the LAS dimensions by name (format 1: GPS time), checked by laspy.
+    pcl_ecs.write(tmp_path / "f.las", pts, fields=fields)
+    las = laspy.read(tmp_path / "f.las")
+    assert las.header.point_format.id == 1
+    assert np.array_equal(np.asarray(las.classification), fields["classification"])
+    assert np.array_equal(np.asarray(las.gps_time), fields["gps_time"])
+    assert np.array_equal(np.asarray(las.point_source_id), fields["point_source_id"])
+    # Bad fields: what is wrong, and no file.
+    for bad, match in [({"x": pts[:, 0]}, "given twice"), ({"c": np.zeros(n + 1)}, "N the number of points"),
+                       ({"c": np.array(["a"] * n)}, "integers or floats"), ({"a b": np.zeros(n)}, "without spaces")]:
+        with pytest.raises(ValueError, match=match):
+            pcl_ecs.write(tmp_path / "bad.pcd", pts, fields=bad)
+        assert not (tmp_path / "bad.pcd").exists()
+
+
 def test_reconstruct_closes_a_sphere():
     i = np.arange(3000)
     z = 1.0 - 2.0 * (i + 0.5) / 3000

@@ -170,9 +170,7 @@ void writePly(std::ostream& out, const pcl::PCLPointCloud2& cloud, bool binary)
     case pcl::PCLPointField::UINT16: return "ushort";
     case pcl::PCLPointField::INT32: return "int";
     case pcl::PCLPointField::UINT32: return "uint";
-    case pcl::PCLPointField::FLOAT64:
-    case pcl::PCLPointField::INT64:   // PLY has no 64-bit integers
-    case pcl::PCLPointField::UINT64: return "double";
+    case pcl::PCLPointField::FLOAT64: return "double";
     default: return "float";
     }
   };
@@ -196,8 +194,11 @@ void writePly(std::ostream& out, const pcl::PCLPointCloud2& cloud, bool binary)
         name = to;
     if (name.empty())
       name = "scalar_" + f.name;
+    // PLY has no 64-bit integers: they are written as double (exact up to 2^53).
+    const bool wide = f.datatype == pcl::PCLPointField::INT64 || f.datatype == pcl::PCLPointField::UINT64;
     for (std::uint32_t c = 0; c < f.count; ++c)
-      cols.push_back({f.count == 1 ? name : name + "_" + std::to_string(c), &f, f.datatype, -1,
+      cols.push_back({f.count == 1 ? name : name + "_" + std::to_string(c), &f,
+                      wide ? static_cast<std::uint8_t>(pcl::PCLPointField::FLOAT64) : f.datatype, -1,
                       static_cast<std::uint32_t>(c * detail::datatypeSize(f.datatype))});
   }
   const std::size_t n = static_cast<std::size_t>(cloud.width) * cloud.height;
