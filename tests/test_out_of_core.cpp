@@ -692,3 +692,44 @@ TEST_F(OutOfCore, RefusesWhatItCannotDo)
   EXPECT_TRUE(fs::is_directory(path("empty")));
   EXPECT_TRUE(fs::is_empty(path("empty")));
 }
+
+TEST_F(OutOfCore, TasksRunInAnyValidOrderByAnyRunGiveTheSameBytes)
+{
+  Parameters params;
+  params.threads = 2;
+  simplifyOutOfCore(path("scan.pcd"), path("whole.pcd"), params, tiled("scratch-whole"));
+  // The driver plans; every task then runs in a TiledRun of its own (as in another process), in
+  // an order that respects the dependencies only: the tiles of a stage last-first, and each task
+  // twice (the second returns at once).
+  const StreamOptions opt = tiled("scratch-tasks");
+  TiledRun driver(path("scan.pcd"), path("tasks.pcd"), params, opt);
+  const int tiles = driver.prepare();
+  ASSERT_GE(tiles, 4);
+  auto task = [&](char stage, int t) {
+    TiledRun worker(path("scan.pcd"), path("tasks.pcd"), params, opt);
+    EXPECT_TRUE(worker.runTask(stage, t)) << stage << t;
+    EXPECT_FALSE(TiledRun(path("scan.pcd"), path("tasks.pcd"), params, opt).runTask(stage, t)) << stage << t;
+  };
+  for (const char stage : {'A', 'B'})
+    for (int t = tiles - 1; t >= 0; --t)
+      task(stage, t);
+  const std::vector<int> colours = driver.colours();
+  ASSERT_EQ(colours.size(), static_cast<std::size_t>(tiles));
+  const int n_colours = *std::max_element(colours.begin(), colours.end()) + 1;
+  EXPECT_GE(n_colours, 2);
+  for (const char stage : {'C', 'D'})
+    for (int c = 0; c < n_colours; ++c)
+      for (int t = tiles - 1; t >= 0; --t)
+        if (colours[static_cast<std::size_t>(t)] == c)
+          task(stage, t);
+  const StreamSummary s = driver.finish();
+  EXPECT_GT(s.output_points, 0u);
+  std::ifstream a(path("whole.pcd"), std::ios::binary), b(path("tasks.pcd"), std::ios::binary);
+  const std::string sa((std::istreambuf_iterator<char>(a)), {}), sb((std::istreambuf_iterator<char>(b)), {});
+  ASSERT_FALSE(sa.empty());
+  EXPECT_TRUE(sa == sb) << "the tasks give the bytes of the whole run";
+  EXPECT_FALSE(fs::exists(path("scratch-tasks")));
+  // A task before its plan exists is refused, with nothing made.
+  EXPECT_THROW(TiledRun(path("scan.pcd"), path("x.pcd"), params, tiled("scratch-none")).runTask('A', 0),
+               std::runtime_error);
+}

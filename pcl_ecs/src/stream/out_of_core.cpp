@@ -59,6 +59,7 @@ constexpr std::size_t kMinSample = 50000;        // ... and at least, when the m
 constexpr double kPlanBytesPerSample = 160.0;    // the plan's memory per sample point (sample, tree, tiles)
 constexpr std::uint64_t kMinTilePoints = 20000;  // the smallest tile (own points + halo) worth running
 constexpr int kConcurrentTiles = 2;              // the plan assumes this many tiles in memory
+constexpr std::uint64_t kProcessAllowance = 48ull << 20;  // what the plan counts for the process itself
 constexpr std::size_t kAttrBytes = 12 + 3 * 8;   // normal (3 f32), weight, measure, curvature (f64)
 
 double secondsSince(Clock::time_point t0)
@@ -631,8 +632,25 @@ public:
   }
 
   StreamSummary run();
+  /// The header, the limit, the scratch and the plan: the scan and split when the scratch holds no
+  /// plan for this run (with `plan_if_missing`; else an error), the plan of an earlier run when it
+  /// does.
+  void prepare(bool plan_if_missing);
+  /// δ (eq. 4) from every tile's phase A sums.
+  void globalsAfterA();
+  /// The means of eq. 6 and 12 and the radius cap from every tile's phase B sums; colours the
+  /// tiles and returns the number of colours.
+  int globalsAfterB(bool warn);
+  /// One step of one tile, as a task: its inputs are read from the scratch and its outputs
+  /// written there atomically; false when it was done already.
+  bool runTask(char stage, int tile);
+  /// The output from every tile's results, and the scratch removed.
+  void finishRun();
+  const Plan& plan() const { return plan_; }
+  StreamSummary& summary() { return summary_; }
 
 private:
+  void listClaims();
   void report(const std::string& line)
   {
     if (options_.progress)
@@ -667,7 +685,7 @@ private:
   }
   /// Memory per point of a tile in memory (points, neighbourhoods, per-point values, records).
   static double tileBytesPerPoint(std::size_t step) { return 420.0 + 2.0 * static_cast<double>(step); }
-  /// The limit less what the process held before the run (its code and libraries, the caller).
+  /// The limit less what the plan counts for the process itself.
   double usableBytes() const
   {
     return static_cast<double>(memory_limit_) - static_cast<double>(std::min(memory_limit_, baseline_bytes_));
@@ -717,10 +735,9 @@ private:
   int tile_threads_ = 1;  // threads inside one tile (set by runStage for each batch of tiles)
   int threads_ = 1;       // all the run's threads
   std::uint64_t memory_limit_ = 0;
-  /// What the process holds before the run, as the plan counts it: its resident set at the start
-  /// rounded up to a multiple of 16 MiB. The resident set varies by about a MiB from run to run
-  /// (page faults in its libraries) and the plan (sample, tile size, halo) follows the memory it
-  /// may use, so the rounding keeps one input, one limit and one seed to one plan and one output.
+  /// What the plan counts for the process itself (its code and libraries): kProcessAllowance,
+  /// a constant, so that the plan (sample, tile size, halo) and so the output depend on the input
+  /// and the limit only, not on the process or machine that runs it.
   std::uint64_t baseline_bytes_ = 0;
   /// The input as the scan read it: whether its records can be read again from it and where they
   /// start, its size and time, its LAS header (for a LAS / LAZ input).
@@ -1829,9 +1846,8 @@ void Runner::writeOutput()
   summary_.stage_seconds[5] = secondsSince(t0);
 }
 
-StreamSummary Runner::run()
+void Runner::prepare(bool plan_if_missing)
 {
-  const auto t0 = Clock::now();
   const std::string bad = validate(params_);
   if (!bad.empty())
     failRun(bad);
@@ -1863,14 +1879,16 @@ StreamSummary Runner::run()
   if (reader.las())
     las_ = std::make_unique<io::LasInfo>(*reader.las());
   input_stamp_ = stampOf(input_);
-  // The limit is a promise: refused at once when this process cannot keep to it.
-  constexpr std::uint64_t kBaselineStep = 16ull << 20;
-  baseline_bytes_ = (residentBytes() + kBaselineStep - 1) / kBaselineStep * kBaselineStep;
+  // The limit is a promise: refused at once when this process cannot keep to it. The plan counts
+  // a fixed allowance for the process itself (pcd_simplify holds about 30 MiB at the start), not
+  // its measured size, so that one input and one limit give one plan and one output in any
+  // process on any machine (a Dask worker, another libc).
+  baseline_bytes_ = kProcessAllowance;
   const std::uint64_t needed = minimumLimit(header_.point_step);
   if (memory_limit_ < needed && options_.max_tile_points == 0)
     throw LimitError("--memory-limit " + std::to_string(memory_limit_ >> 20) + "M is below what this run needs: use at least " +
             suggestedLimit(needed) + " (the process itself counts as " +
-            std::to_string(baseline_bytes_ >> 20) + "M, its size at the start rounded up to 16M; two tiles of " +
+            std::to_string(baseline_bytes_ >> 20) + "M; two tiles of " +
             std::to_string(kMinTilePoints) + " points and the planning sample need the rest)");
   (void)io::XyzAccess(header_);
   std::error_code ec;
@@ -1887,8 +1905,15 @@ StreamSummary Runner::run()
     summary_.resumed = true;
     report("resuming from " + paths_.root.string());
   }
+  else if (!plan_if_missing)
+    failRun("the scratch directory " + paths_.root.string() + " holds no plan for this run: prepare it first");
   else
   {
+    const std::uint64_t resident = residentBytes();
+    if (resident > baseline_bytes_)
+      report("note: this process holds " + std::to_string(resident >> 20) + " MiB before the run, more than the " +
+             std::to_string(baseline_bytes_ >> 20) + " MiB the plan counts for it; its peak may pass the limit by the "
+             "difference");
     fs::remove_all(paths_.root, ec);
     fs::create_directories(paths_.root, ec);
     if (ec)
@@ -1928,19 +1953,11 @@ StreamSummary Runner::run()
   summary_.split_runs = plan_.parts;
   viewpoint_local_ = plan_.toLocal(Eigen::Vector3d(header_.viewpoint[0], header_.viewpoint[1], header_.viewpoint[2]));
   normal_fields_ = {header_.fieldIndex("normal_x"), header_.fieldIndex("normal_y"), header_.fieldIndex("normal_z")};
-  const int tiles = static_cast<int>(plan_.tree.tiles.size());
-  auto pending = [&](const std::function<fs::path(int)>& marker) {
-    std::vector<int> todo;
-    for (int t = 0; t < tiles; ++t)
-      if (!fs::exists(marker(t)))
-        todo.push_back(t);
-    return todo;
-  };
-  auto track_scratch = [&]() { summary_.scratch_bytes = std::max(summary_.scratch_bytes, directoryBytes(paths_.root)); };
+}
 
-  // Phase A, then δ over all points.
-  runStage("A (neighbourhoods, normals, eq. 1-3, 7-11)", 2, pending([&](int t) { return paths_.sumA(t); }),
-           [&](int t) { phaseA(t); });
+void Runner::globalsAfterA()
+{
+  const int tiles = static_cast<int>(plan_.tree.tiles.size());
   double sum_measure = 0.0, count = 0.0, incomplete = 0.0, merged = 0.0;
   for (int t = 0; t < tiles; ++t)
   {
@@ -1954,10 +1971,11 @@ StreamSummary Runner::run()
   delta_ = params_.feature_factor * sum_measure / count;
   summary_.feature_threshold = delta_ / plan_.scale();
   summary_.incomplete_neighbourhoods = static_cast<std::uint64_t>(incomplete);
-  track_scratch();
+}
 
-  // Phase B, then the means of eq. 6 and 12 and the radius unit over all non-feature points.
-  runStage("B (features, eq. 5)", 3, pending([&](int t) { return paths_.sumB(t); }), [&](int t) { phaseB(t); });
+int Runner::globalsAfterB(bool warn)
+{
+  const int tiles = static_cast<int>(plan_.tree.tiles.size());
   double sb[6] = {0, 0, 0, 0, 0, 0};
   for (int t = 0; t < tiles; ++t)
   {
@@ -1978,13 +1996,57 @@ StreamSummary Runner::run()
   if (cap_world > plan_.halo)
   {
     summary_.halo_too_narrow = true;
-    report("warning: the largest ball (" + std::to_string(cap_world) + ") is wider than the halo (" +
-           std::to_string(plan_.halo) + "); balls at tile borders may be cut");
+    if (warn)
+      report("warning: the largest ball (" + std::to_string(cap_world) + ") is wider than the halo (" +
+             std::to_string(plan_.halo) + "); balls at tile borders may be cut");
   }
   // Tiles closer than two ball radii interact: they get different colours and run one after another.
-  const int colours = colourTiles(plan_.tree.tiles, 2.0 * cap_world * 1.001 + 1e-12 / plan_.scale());
+  return colourTiles(plan_.tree.tiles, 2.0 * cap_world * 1.001 + 1e-12 / plan_.scale());
+}
+
+void Runner::listClaims()
+{
+  // The claims written so far (phaseC keeps those of earlier colours).
+  std::error_code ec;
+  claim_writers_.clear();
+  for (const auto& e : fs::directory_iterator(paths_.root / "c", ec))
+  {
+    const std::string name = e.path().filename().string();
+    const std::size_t dot = name.find(".from.");
+    if (dot == std::string::npos || name.find(".tmp") != std::string::npos)
+      continue;
+    claim_writers_[std::stoi(name.substr(0, dot))].push_back(std::stoi(name.substr(dot + 6)));
+  }
+  for (auto& kv : claim_writers_)
+    std::sort(kv.second.begin(), kv.second.end());
+}
+
+StreamSummary Runner::run()
+{
+  const auto t0 = Clock::now();
+  prepare(true);
+  const int tiles = static_cast<int>(plan_.tree.tiles.size());
+  auto pending = [&](const std::function<fs::path(int)>& marker) {
+    std::vector<int> todo;
+    for (int t = 0; t < tiles; ++t)
+      if (!fs::exists(marker(t)))
+        todo.push_back(t);
+    return todo;
+  };
+  auto track_scratch = [&]() { summary_.scratch_bytes = std::max(summary_.scratch_bytes, directoryBytes(paths_.root)); };
+
+  // Phase A, then δ over all points.
+  runStage("A (neighbourhoods, normals, eq. 1-3, 7-11)", 2, pending([&](int t) { return paths_.sumA(t); }),
+           [&](int t) { phaseA(t); });
+  globalsAfterA();
   track_scratch();
 
+  // Phase B, then the means of eq. 6 and 12 and the radius unit over all non-feature points.
+  runStage("B (features, eq. 5)", 3, pending([&](int t) { return paths_.sumB(t); }), [&](int t) { phaseB(t); });
+  const int colours = globalsAfterB(true);
+  track_scratch();
+
+  std::error_code ec;
   fs::create_directories(paths_.root / "c");
   for (int c = 0; c < colours; ++c)
   {
@@ -1992,18 +2054,7 @@ StreamSummary Runner::run()
     for (int t = 0; t < tiles; ++t)
       if (plan_.tree.tiles[static_cast<std::size_t>(t)].colour == c && !fs::exists(paths_.doneC(t)))
         todo.push_back(t);
-    // The claims written so far, listed once for the colour (phaseC keeps those of earlier colours).
-    claim_writers_.clear();
-    for (const auto& e : fs::directory_iterator(paths_.root / "c", ec))
-    {
-      const std::string name = e.path().filename().string();
-      const std::size_t dot = name.find(".from.");
-      if (dot == std::string::npos || name.find(".tmp") != std::string::npos)
-        continue;
-      claim_writers_[std::stoi(name.substr(0, dot))].push_back(std::stoi(name.substr(dot + 6)));
-    }
-    for (auto& kv : claim_writers_)
-      std::sort(kv.second.begin(), kv.second.end());
+    listClaims();
     const std::string name = "C (cover, colour " + std::to_string(c + 1) + "/" + std::to_string(colours) + ")";
     runStage(name.c_str(), 4, todo, [&](int t) { phaseC(t); });
   }
@@ -2017,6 +2068,15 @@ StreamSummary Runner::run()
       const std::string name = "D (gaps, colour " + std::to_string(c + 1) + "/" + std::to_string(colours) + ")";
       runStage(name.c_str(), 4, todo, [&](int t) { phaseD(t); });
     }
+  track_scratch();
+  finishRun();
+  summary_.seconds = secondsSince(t0);
+  return summary_;
+}
+
+void Runner::finishRun()
+{
+  const int tiles = static_cast<int>(plan_.tree.tiles.size());
   for (int t = 0; t < tiles; ++t)
   {
     const auto s = readVector<double>(paths_.doneC(t));
@@ -2030,17 +2090,111 @@ StreamSummary Runner::run()
       summary_.balls += static_cast<std::uint64_t>(g.at(0));
     }
   }
-  track_scratch();
   writeOutput();
   summary_.tiles = plan_.tree.tiles;
+  std::error_code ec;
   if (!options_.keep_scratch)
     fs::remove_all(paths_.root, ec);
-  summary_.seconds = secondsSince(t0);
-  return summary_;
 }
+
+bool Runner::runTask(char stage, int t)
+{
+  if (t < 0 || static_cast<std::size_t>(t) >= plan_.tree.tiles.size())
+    failRun("no tile " + std::to_string(t) + " in this plan");
+  const auto done = [&](const fs::path& marker) { return fs::exists(marker); };
+  tile_threads_ = threads_;
+  switch (stage)
+  {
+  case 'A':
+    if (done(paths_.sumA(t)))
+      return false;
+    phaseA(t);
+    break;
+  case 'B':
+    if (done(paths_.sumB(t)))
+      return false;
+    globalsAfterA();
+    phaseB(t);
+    break;
+  case 'C':
+  case 'D':
+    if (done(stage == 'C' ? paths_.doneC(t) : paths_.doneD(t)))
+      return false;
+    globalsAfterA();
+    globalsAfterB(false);
+    if (stage == 'C')
+    {
+      std::error_code ec;
+      fs::create_directories(paths_.root / "c", ec);
+      listClaims();
+      phaseC(t);
+    }
+    else
+      phaseD(t);
+    break;
+  default: failRun(std::string("no stage '") + stage + "' (A, B, C, D)");
+  }
+  stepDone();
+  return true;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
+
+struct TiledRun::Impl
+{
+  Runner runner;
+  bool prepared = false;
+  Impl(const std::string& input, const std::string& output, const Parameters& params, const StreamOptions& options)
+    : runner(input, output, params, options)
+  {
+  }
+};
+
+TiledRun::TiledRun(const std::string& input, const std::string& output, const Parameters& params,
+                   const StreamOptions& options)
+  : impl_(std::make_unique<Impl>(input, output, params, options))
+{
+}
+
+TiledRun::~TiledRun() = default;
+
+int TiledRun::prepare(bool plan)
+{
+  impl_->runner.prepare(plan);
+  impl_->prepared = true;
+  return static_cast<int>(impl_->runner.plan().tree.tiles.size());
+}
+
+std::vector<int> TiledRun::colours()
+{
+  if (!impl_->prepared)
+    prepare(false);
+  impl_->runner.globalsAfterA();
+  impl_->runner.globalsAfterB(false);
+  std::vector<int> c;
+  for (const Tile& t : impl_->runner.plan().tree.tiles)
+    c.push_back(t.colour);
+  return c;
+}
+
+bool TiledRun::runTask(char stage, int tile)
+{
+  if (!impl_->prepared)
+    prepare(false);
+  return impl_->runner.runTask(stage, tile);
+}
+
+StreamSummary TiledRun::finish()
+{
+  if (!impl_->prepared)
+    prepare(false);
+  impl_->runner.globalsAfterA();
+  impl_->runner.globalsAfterB(false);
+  impl_->runner.finishRun();
+  return impl_->runner.summary();
+}
 
 StreamSummary simplifyOutOfCore(const std::string& input, const std::string& output, const Parameters& params,
                                 const StreamOptions& options)

@@ -25,6 +25,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -109,6 +110,42 @@ struct LimitError : std::runtime_error
  * Parameters::target_size is not supported here (refused). */
 StreamSummary simplifyOutOfCore(const std::string& input, const std::string& output,
                                 const Parameters& params, const StreamOptions& options);
+
+/** \brief The out-of-core run as tasks, for a scheduler of the caller's (pcl_ecs.distributed
+ * runs them on Dask): prepare() once (the scan, the plan and the split), then runTask() for every
+ * tile's stage 'A' and 'B', colours(), then stage 'C' and (when Parameters::max_gap_factor > 0)
+ * 'D', then finish(). A task reads its inputs from the scratch directory and writes its outputs
+ * there atomically, so any process that reaches the scratch may run it (a TiledRun made with the
+ * same arguments and prepare(false)), and a task run again returns at once. Dependencies:
+ * B(t) needs A of every tile; C(t) needs B of every tile and C of every tile of a lower colour;
+ * D(t) needs C of every tile and D of every tile of a lower colour; finish() needs them all. The
+ * output is the bytes simplifyOutOfCore gives for the same input, parameters and options. */
+class TiledRun
+{
+public:
+  TiledRun(const std::string& input, const std::string& output, const Parameters& params,
+           const StreamOptions& options);
+  ~TiledRun();
+  TiledRun(const TiledRun&) = delete;
+  TiledRun& operator=(const TiledRun&) = delete;
+
+  /** \brief Open the input's header and the plan; with `plan`, scan, plan and split first when
+   * the scratch holds no plan for this run (without: that is an error). Returns the tiles. Throws
+   * as simplifyOutOfCore does. */
+  int prepare(bool plan = true);
+  /** \brief Each tile's colour, once every tile's stage B is done. */
+  std::vector<int> colours();
+  /** \brief Run stage `stage` ('A', 'B', 'C' or 'D') of tile `tile`; false when it was done
+   * already. */
+  bool runTask(char stage, int tile);
+  /** \brief Write the output from every tile's results and remove the scratch (unless
+   * keep_scratch); the run's summary. */
+  StreamSummary finish();
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 /** \brief Parse a size like "512M", "2G", "1.5G", "800000K" or plain bytes; false when malformed. */
 bool parseByteSize(const std::string& text, std::uint64_t& bytes);
