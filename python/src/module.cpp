@@ -8,6 +8,7 @@
 #include <pcl_ecs/io/cloud_io.h>
 #include <pcl_ecs/io/las_io.h>
 #include <pcl_ecs/parameters.h>
+#include <pcl_ecs/stream/out_of_core.h>
 #include <pcl_ecs/surface/cocone.h>
 #include <pcl_ecs/version.h>
 
@@ -332,6 +333,45 @@ std::pair<nb::ndarray<nb::numpy, double>, nb::ndarray<nb::numpy, std::int64_t>> 
   const std::size_t nt = r.triangles.size();
   return {owned(std::move(v), {n, 3}), owned(std::move(t), {nt, 3})};
 }
+/// Runs `fn` without the GIL, turning the library's errors into Python's: a bad input or a limit
+/// that cannot be kept is ValueError, anything else (a file that cannot be read or written)
+/// RuntimeError.
+template <typename F>
+auto translated(F&& fn) -> decltype(fn())
+{
+  try
+  {
+    nb::gil_scoped_release release;
+    return fn();
+  }
+  catch (const pcl_ecs::io::FormatError& e)
+  {
+    throw nb::value_error(e.what());
+  }
+  catch (const pcl_ecs::stream::LimitError& e)
+  {
+    throw nb::value_error(e.what());
+  }
+}
+
+nb::dict streamSummary(const pcl_ecs::stream::StreamSummary& s)
+{
+  nb::dict counts;
+  counts["input_points"] = s.input_points;
+  counts["finite_points"] = s.finite_points;
+  counts["merged_points"] = s.merged_points;
+  counts["feature_points"] = s.feature_points;
+  counts["balls"] = s.balls;
+  counts["gap_points"] = s.gap_points;
+  counts["output_points"] = s.output_points;
+  nb::dict out;
+  out["counts"] = counts;
+  out["max_error"] = s.max_error;
+  out["tiles"] = s.tiles.size();
+  out["bbox_diagonal"] = s.bbox_diagonal;
+  out["feature_threshold"] = s.feature_threshold;
+  return out;
+}
 }  // namespace
 
 NB_MODULE(_core, m)
@@ -371,4 +411,33 @@ NB_MODULE(_core, m)
   m.def("_write", &writeFile, "path"_a, "points"_a, "normals"_a.none(), "colors"_a.none(), "intensity"_a.none(),
         "fields"_a.none());
   m.def("_reconstruct", &reconstruct, "points"_a);
+  using pcl_ecs::stream::TiledRun;
+  nb::class_<TiledRun>(m, "_TiledRun")
+      .def("__init__",
+           [](TiledRun* self, const std::string& input, const std::string& output, const Parameters& params,
+              std::uint64_t memory_limit, const std::string& scratch, std::uint64_t tile_points, bool keep_scratch) {
+             pcl_ecs::stream::StreamOptions o;
+             o.memory_limit = memory_limit;
+             o.scratch_dir = scratch;
+             o.max_tile_points = tile_points;
+             o.keep_scratch = keep_scratch;
+             new (self) TiledRun(input, output, params, o);
+           },
+           "input"_a, "output"_a, "params"_a, "memory_limit"_a, "scratch"_a, "tile_points"_a, "keep_scratch"_a)
+      .def("prepare", [](TiledRun& r, bool plan) { return translated([&] { return r.prepare(plan); }); }, "plan"_a)
+      .def("colours", [](TiledRun& r) { return translated([&] { return r.colours(); }); })
+      .def("run_task",
+           [](TiledRun& r, const std::string& stage, int tile) {
+             if (stage.size() != 1)
+               throw nb::value_error("stage must be one of A, B, C, D");
+             return translated([&] { return r.runTask(stage[0], tile); });
+           },
+           "stage"_a, "tile"_a)
+      .def("finish", [](TiledRun& r) { return streamSummary(translated([&] { return r.finish(); })); });
+  m.def("_parse_byte_size", [](const std::string& text) {
+    std::uint64_t bytes = 0;
+    if (!pcl_ecs::stream::parseByteSize(text, bytes))
+      throw nb::value_error(("not a size: '" + text + "' (e.g. 512M, 2G)").c_str());
+    return bytes;
+  });
 }
