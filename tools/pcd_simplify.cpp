@@ -37,6 +37,8 @@ namespace
 {
 
 const char* kUsage = R"(Usage: pcd_simplify INPUT OUTPUT [options]
+       pcd_simplify INPUT... OUTPUT --stream [options]   (several files, or a directory of tiles,
+                                                          simplified as one cloud)
 
 Simplifies a point cloud while keeping its sharp features: points on sharp edges and corners
 (curvature measure above α times the mean) are kept as they are; every other region is covered by
@@ -112,6 +114,7 @@ Examples:
 struct Options
 {
   std::string input, output, features, stats, mesh;
+  std::vector<std::string> inputs;  // --stream: every input file (a directory: its tiles)
   Parameters params;
   surface::CoconeParameters cocone;
   double target_ratio = 0.0;
@@ -203,11 +206,11 @@ Options parseArgs(int argc, char** argv, bool& done)
     else
       positional.push_back(a);
   }
-  if (positional.size() != 2)
+  if (positional.size() != 2 && !(o.stream && positional.size() > 2))
     throw UsageError("expected INPUT and OUTPUT, got " + std::to_string(positional.size()) +
                      " file name(s) (see --help)");
   o.input = positional[0];
-  o.output = positional[1];
+  o.output = positional.back();
   if (o.target_ratio > 0.0 && o.params.target_size > 0)
     throw UsageError("--target-size and --target-ratio exclude each other");
   checkFilterFlagConflicts(args, o.target_ratio > 0.0);
@@ -220,10 +223,19 @@ Options parseArgs(int argc, char** argv, bool& done)
                        "--compressed are for in-memory runs");
     if (o.params.use_input_normals)
       throw UsageError("--stream estimates the normals; --use-input-normals is for in-memory runs");
-    for (const std::string* f : {&o.input, &o.output})
-      if (!io::isRecordFormat(*f))
-        throw UsageError(std::string("--stream reads and writes .pcd, .las and .laz files; the ") +
-                         (f == &o.input ? "input" : "output") + " is not one");
+    try
+    {
+      o.inputs = io::recordInputs(std::vector<std::string>(positional.begin(), positional.end() - 1));
+    }
+    catch (const io::FileError& e)
+    {
+      throw ToolError(kExitInput, e.what());
+    }
+    for (const std::string& f : o.inputs)
+      if (!io::isRecordFormat(f))
+        throw UsageError("--stream reads .pcd, .las and .laz files; " + f + " is not one");
+    if (!io::isRecordFormat(o.output))
+      throw UsageError("--stream writes .pcd, .las and .laz files; the output is not one");
   }
   else if (o.memory_limit || !o.scratch.empty() || o.keep_scratch || o.kill_after || o.tile_points)
     throw UsageError("--memory-limit, --scratch, --keep-scratch and --tile-points need --stream");
@@ -267,8 +279,10 @@ Options parseArgs(int argc, char** argv, bool& done)
     const std::string& out = *outputs[k].second;
     if (out.empty())
       continue;
-    if (sameFile(o.input, out))
-      throw UsageError(out + ": is the input file; choose another output name");
+    for (const std::string& in : o.inputs.empty() ? std::vector<std::string>{o.input} : o.inputs)
+      if (sameFile(in, out))
+        throw UsageError(out + (o.inputs.size() > 1 ? ": is one of the input files" : ": is the input file") +
+                         "; choose another output name");
     for (std::size_t j = 0; j < k; ++j)
       if (!outputs[j].second->empty() && sameFile(*outputs[j].second, out))
         throw UsageError(std::string(outputs[k].first) + " " + out + " is also " + outputs[j].first +
@@ -325,7 +339,7 @@ int runStream(const Options& o)
   stream::StreamSummary s;
   try
   {
-    s = stream::simplifyOutOfCore(o.input, o.output, o.params, so);
+    s = stream::simplifyOutOfCore(o.inputs, o.output, o.params, so);
   }
   catch (const stream::LimitError& e)
   {

@@ -6,7 +6,7 @@ tasks and the same bytes as one process, each task run by whichever worker Dask 
     summary = simplify_distributed("big.laz", "small.laz", Client("tcp://scheduler:8786"),
                                    scratch="/shared/tmp", memory_limit="2G", error_threshold=1e-3)
 
-or from a shell: `python -m pcl_ecs.distributed IN OUT --scheduler tcp://HOST:PORT` (`--local N`
+or from a shell: `python -m pcl_ecs.distributed IN... OUT --scheduler tcp://HOST:PORT` (`--local N`
 for a LocalCluster of N worker processes), with pcd_simplify --stream's flags.
 
 The driver (this process) reads the input's header, plans and splits the scan into tiles in the
@@ -37,20 +37,31 @@ from . import _core, _parameters
 __all__ = ["simplify_distributed", "main"]
 
 
-def _run_args(input, output, memory_limit, scratch, tile_points, keep_scratch):
+def _run_args(inputs, output, memory_limit, scratch, tile_points, keep_scratch):
     if isinstance(memory_limit, str):
         memory_limit = _core._parse_byte_size(memory_limit)
-    return (os.path.abspath(os.fspath(input)), os.path.abspath(os.fspath(output)), int(memory_limit or 0),
-            os.path.abspath(os.fspath(scratch)), int(tile_points or 0), bool(keep_scratch))
+    if isinstance(inputs, (str, os.PathLike)):
+        inputs = [inputs]
+    files = tuple(os.path.abspath(f) for f in _core._record_inputs([os.fspath(i) for i in inputs]))
+    return (files, os.path.abspath(os.fspath(output)), int(memory_limit or 0), os.path.abspath(os.fspath(scratch)),
+            int(tile_points or 0), bool(keep_scratch))
 
 
 def _open(args, params: Dict[str, Any]):
-    input, output, memory_limit, scratch, tile_points, keep = args
-    return _core._TiledRun(input, output, _parameters(params), memory_limit, scratch, tile_points, keep)
+    inputs, output, memory_limit, scratch, tile_points, keep = args
+    return _core._TiledRun(list(inputs), output, _parameters(params), memory_limit, scratch, tile_points, keep)
 
 
 def _task(args, params: Dict[str, Any], stage: str, tile: int, *after) -> bool:
     """One step of one tile, in a worker: True when it ran, False when it was done already."""
+    if "threads" not in params:
+        # As many threads as the worker has (threads_per_worker): a tile's result does not depend
+        # on them, and more than that would oversubscribe the machine's cores.
+        from dask.distributed import get_worker
+        try:
+            params = dict(params, threads=get_worker().state.nthreads)
+        except ValueError:  # not in a worker (called directly)
+            pass
     run = _open(args, params)
     run.prepare(False)
     _kill_for_tests(stage, tile)
@@ -76,11 +87,12 @@ def _kill_for_tests(stage: str, tile: int) -> None:
     threading.Timer(0.02, os.kill, (os.getpid(), signal.SIGKILL)).start()
 
 
-def simplify_distributed(input: str, output: str, client: Any, scratch: str, *,
+def simplify_distributed(inputs: Any, output: str, client: Any, scratch: str, *,
                          memory_limit: Any = "1G", tile_points: int = 0, keep_scratch: bool = False,
                          progress: bool = False, retries: int = 2, **params: Any) -> Dict[str, Any]:
-    """Simplify `input` (PCD, LAS or LAZ) into `output` (PCD, LAS or LAZ) on the workers of
-    `client` (a dask.distributed.Client). `scratch` is a directory the driver and every worker can
+    """Simplify `inputs` (a PCD, LAS or LAZ file, a directory of them, or a list of either: their
+    points as one cloud, as `pcd_simplify --stream IN... OUT`) into `output` (PCD, LAS or LAZ) on
+    the workers of `client` (a dask.distributed.Client). `scratch` is a directory the driver and every worker can
     reach; `memory_limit` (bytes or "2G") sizes the tiles as `--memory-limit` does, so that each
     task holds at most two tiles' worth (a worker runs tasks on as many threads as it has:
     `nthreads=1` per worker keeps one task per worker); `params` are those of `simplify`
@@ -94,7 +106,7 @@ def simplify_distributed(input: str, output: str, client: Any, scratch: str, *,
     from dask.distributed import progress as dask_progress
 
     t0 = time.monotonic()
-    args = _run_args(input, output, memory_limit, scratch, tile_points, keep_scratch)
+    args = _run_args(inputs, output, memory_limit, scratch, tile_points, keep_scratch)
     checked = _parameters(params)  # bad names and values fail here, before any work
     driver = _open(args, params)
     tiles = driver.prepare(True)
@@ -160,8 +172,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         description="pcd_simplify --stream on a Dask cluster: the same output, bytes for bytes, with the tiles' "
                     "steps run by the cluster's workers. INPUT and OUTPUT are .pcd, .las or .laz; the scratch "
                     "directory, the input and the output must be reachable from every worker.")
-    ap.add_argument("input")
-    ap.add_argument("output")
+    ap.add_argument("inputs", nargs="+", metavar="INPUT",
+                    help="a .pcd, .las or .laz file, or a directory of them (simplified as one cloud)")
+    ap.add_argument("output", metavar="OUTPUT")
     where = ap.add_mutually_exclusive_group(required=True)
     where.add_argument("--scheduler", metavar="ADDRESS", help="a running scheduler, e.g. tcp://HOST:8786")
     where.add_argument("--local", metavar="N", type=int, help="start a LocalCluster of N worker processes")
@@ -193,7 +206,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         else:
             client = Client(o.scheduler)
         with client:
-            s = simplify_distributed(o.input, o.output, client, o.scratch, memory_limit=o.memory_limit,
+            s = simplify_distributed(o.inputs, o.output, client, o.scratch, memory_limit=o.memory_limit,
                                      tile_points=o.tile_points, keep_scratch=o.keep_scratch, progress=not o.quiet,
                                      **params)
     except ValueError as e:

@@ -7,6 +7,7 @@
 #include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/cloud_io.h>
 #include <pcl_ecs/io/las_io.h>
+#include <pcl_ecs/io/record_stream.h>
 #include <pcl_ecs/parameters.h>
 #include <pcl_ecs/stream/out_of_core.h>
 #include <pcl_ecs/surface/cocone.h>
@@ -414,16 +415,17 @@ NB_MODULE(_core, m)
   using pcl_ecs::stream::TiledRun;
   nb::class_<TiledRun>(m, "_TiledRun")
       .def("__init__",
-           [](TiledRun* self, const std::string& input, const std::string& output, const Parameters& params,
-              std::uint64_t memory_limit, const std::string& scratch, std::uint64_t tile_points, bool keep_scratch) {
+           [](TiledRun* self, const std::vector<std::string>& inputs, const std::string& output,
+              const Parameters& params, std::uint64_t memory_limit, const std::string& scratch,
+              std::uint64_t tile_points, bool keep_scratch) {
              pcl_ecs::stream::StreamOptions o;
              o.memory_limit = memory_limit;
              o.scratch_dir = scratch;
              o.max_tile_points = tile_points;
              o.keep_scratch = keep_scratch;
-             new (self) TiledRun(input, output, params, o);
+             new (self) TiledRun(inputs, output, params, o);
            },
-           "input"_a, "output"_a, "params"_a, "memory_limit"_a, "scratch"_a, "tile_points"_a, "keep_scratch"_a)
+           "inputs"_a, "output"_a, "params"_a, "memory_limit"_a, "scratch"_a, "tile_points"_a, "keep_scratch"_a)
       .def("prepare", [](TiledRun& r, bool plan) { return translated([&] { return r.prepare(plan); }); }, "plan"_a)
       .def("colours", [](TiledRun& r) { return translated([&] { return r.colours(); }); })
       .def("run_task",
@@ -434,6 +436,16 @@ NB_MODULE(_core, m)
            },
            "stage"_a, "tile"_a)
       .def("finish", [](TiledRun& r) { return streamSummary(translated([&] { return r.finish(); })); });
+  m.def("_record_inputs", [](const std::vector<std::string>& args) {
+    try
+    {
+      return pcl_ecs::io::recordInputs(args);
+    }
+    catch (const pcl_ecs::io::FileError& e)
+    {
+      throw nb::value_error(e.what());
+    }
+  });
   m.def("_parse_byte_size", [](const std::string& text) {
     std::uint64_t bytes = 0;
     if (!pcl_ecs::stream::parseByteSize(text, bytes))

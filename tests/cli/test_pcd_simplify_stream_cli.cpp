@@ -214,6 +214,72 @@ TEST_F(StreamCli, LazInputIsReadInChunksAndGivesWhatItsPointsGiveAsPcd)
   }
 }
 
+TEST_F(StreamCli, SeveralTilesAreSimplifiedAsOneCloud)
+{
+  // Three LAS tiles of one surface, side by side, each with its own offset; their records in one
+  // binary PCD are the oracle.
+  fs::create_directories(path("tiles"));
+  std::vector<std::string> tiles;
+  pcl::PCLPointCloud2 all;
+  for (int i = 0; i < 3; ++i)
+  {
+    tiles.push_back(makeScan("tiles/t" + std::to_string(i) + ".las", 150000,
+                             "--scale 100 --offset " + std::to_string(512000 + 15 * i) + " 4100000 200 --seed " +
+                                 std::to_string(i + 1)));
+    pcl::PCLPointCloud2 c;
+    pcl_ecs::io::readCloud(tiles.back(), c);
+    if (i == 0)
+      all = c;
+    else
+    {
+      ASSERT_EQ(c.point_step, all.point_step);
+      all.data.insert(all.data.end(), c.data.begin(), c.data.end());
+      all.width += c.width;
+      all.row_step = all.width * all.point_step;
+    }
+  }
+  pcl_ecs::io::writeCloud(path("all.pcd"), pcl_ecs::io::Format::Pcd, all, pcl_ecs::io::Encoding::Binary);
+  const std::string flags = " --stream --memory-limit 256M --tile-points 100000 --quiet";
+  const RunResult dir = runTool(kSimplify, path("tiles") + " " + path("dir.pcd") + flags);
+  ASSERT_EQ(dir.code, 0) << dir.err;
+  const RunResult listed = runTool(kSimplify, tiles[0] + " " + tiles[1] + " " + tiles[2] + " " + path("listed.pcd") + flags);
+  ASSERT_EQ(listed.code, 0) << listed.err;
+  const RunResult one = runTool(kSimplify, path("all.pcd") + " " + path("one.pcd") + flags);
+  ASSERT_EQ(one.code, 0) << one.err;
+  EXPECT_TRUE(slurp(path("dir.pcd")) == slurp(path("one.pcd"))) << "the tiles as one cloud";
+  EXPECT_TRUE(slurp(path("listed.pcd")) == slurp(path("one.pcd")));
+  // As LAS: a frame that holds every tile (the offsets differ), every point within half its scale.
+  const RunResult las = runTool(kSimplify, path("tiles") + " " + path("out.las") + flags);
+  ASSERT_EQ(las.code, 0) << las.err;
+  pcl::PCLPointCloud2 a, b;
+  pcl_ecs::io::LasInfo info;
+  pcl_ecs::io::readCloud(path("out.las"), a, &info);
+  pcl_ecs::io::readCloud(path("one.pcd"), b);
+  ASSERT_EQ(a.width, b.width);
+  for (std::size_t i = 0; i < a.width; ++i)
+    for (int k = 0; k < 3; ++k)
+    {
+      double u, v;
+      std::memcpy(&u, a.data.data() + i * a.point_step + 8 * k, 8);
+      std::memcpy(&v, b.data.data() + i * b.point_step + 8 * k, 8);
+      ASSERT_LE(std::abs(u - v), 0.5 * info.scale[k] * (1 + 1e-6) + 1e-9 * std::abs(v)) << i;
+    }
+  // A tile of another point format is refused, naming it; nothing is written.
+  pcl::PCLPointCloud2 xyz;
+  pcl_ecs::io::appendField(xyz, "x", pcl::PCLPointField::FLOAT64);
+  pcl_ecs::io::appendField(xyz, "y", pcl::PCLPointField::FLOAT64);
+  pcl_ecs::io::appendField(xyz, "z", pcl::PCLPointField::FLOAT64);
+  pcl_ecs::io::appendField(xyz, "gps_time", pcl::PCLPointField::FLOAT64);
+  xyz.width = 100;
+  xyz.height = 1;
+  xyz.data.assign(100 * xyz.point_step, 0);
+  pcl_ecs::io::writeCloud(path("tiles/t3.las"), pcl_ecs::io::Format::Las, xyz, pcl_ecs::io::Encoding::Binary);
+  const RunResult mixed = runTool(kSimplify, path("tiles") + " " + path("mixed.las") + flags);
+  EXPECT_EQ(mixed.code, 3) << mixed.err;
+  EXPECT_NE(mixed.err.find("t3.las"), std::string::npos) << mixed.err;
+  EXPECT_FALSE(fs::exists(path("mixed.las")));
+}
+
 TEST_F(StreamCli, RefusalsLeaveNothingBehind)
 {
   const std::string scan = makeScan("scan.pcd", 20000);

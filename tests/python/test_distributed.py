@@ -63,6 +63,26 @@ def test_laz_in_and_out_as_pcd_simplify_stream(tools, cluster, tmp_path):
     assert (tmp_path / "out.laz").read_bytes() == (tmp_path / "ref.laz").read_bytes()
 
 
+def test_three_las_tiles_as_one_cloud_as_pcd_simplify_stream(tools, cluster, tmp_path):
+    tiles = tmp_path / "tiles"
+    tiles.mkdir()
+    for i in range(3):
+        subprocess.run([str(tools / "pcd_make_scan"), str(MESH), str(tiles / f"t{i}.las"), "--points", "200000",
+                        "--quiet", "--seed", str(i + 1), "--scale", "100", "--offset", str(512000 + 15 * i),
+                        "4100000", "200"], check=True)
+    flags = ["--memory-limit", "256M", "--tile-points", "100000"]
+    subprocess.run([str(tools / "pcd_simplify"), str(tiles), str(tmp_path / "ref.laz"), "--stream", "--quiet", *flags],
+                   check=True)
+    s = simplify_distributed(tiles, tmp_path / "out.laz", cluster, tmp_path / "scratch", memory_limit="256M",
+                             tile_points=100000)
+    assert s["counts"]["input_points"] == 600000
+    assert (tmp_path / "out.laz").read_bytes() == (tmp_path / "ref.laz").read_bytes()
+    # The tiles listed one by one are the same cloud.
+    simplify_distributed(sorted(tiles.iterdir()), tmp_path / "listed.laz", cluster, tmp_path / "scratch2",
+                         memory_limit="256M", tile_points=100000)
+    assert (tmp_path / "listed.laz").read_bytes() == (tmp_path / "ref.laz").read_bytes()
+
+
 def test_a_worker_killed_in_a_task_changes_nothing(scan, tmp_path):
     # The first worker to run stage C of tile 1 kills itself (SIGKILL) while it runs; Dask gives the
     # task to another worker (the nanny restarts the dead one).

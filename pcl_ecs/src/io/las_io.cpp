@@ -694,6 +694,23 @@ LasInfo defaultLasInfo(const std::vector<pcl::PCLPointField>& fields, const std:
   return info;
 }
 
+void fitLasFrame(LasInfo& info, const std::array<double, 3>& lo, const std::array<double, 3>& hi)
+{
+  const auto fits = [&](int a) {
+    const double q0 = std::round((lo[a] - info.offset[a]) / info.scale[a]);
+    const double q1 = std::round((hi[a] - info.offset[a]) / info.scale[a]);
+    return q0 >= -2147483648.0 && q1 <= 2147483647.0;
+  };
+  for (int a = 0; a < 3; ++a)
+  {
+    if (!(lo[a] <= hi[a]) || fits(a))
+      continue;
+    info.offset[a] = std::floor(0.5 * (lo[a] + hi[a]));
+    for (int k = 0; k < 40 && !fits(a); ++k)
+      info.scale[a] *= 10.0;
+  }
+}
+
 std::string lasBytes(const pcl::PCLPointCloud2& cloud, const LasInfo* like, bool compressed)
 {
 #ifndef PCL_ECS_HAVE_LAZ

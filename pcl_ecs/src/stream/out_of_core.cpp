@@ -557,14 +557,17 @@ FileStamp stampOf(const fs::path& file)
   return s;
 }
 
-std::string fingerprintOf(const std::string& input, const Parameters& p, std::uint64_t memory_limit)
+std::string fingerprintOf(const std::vector<std::string>& inputs, const Parameters& p, std::uint64_t memory_limit)
 {
-  std::error_code ec;
-  const fs::path abs = fs::absolute(input, ec);
-  const FileStamp stamp = stampOf(input);
   std::ostringstream os;
-  os << std::setprecision(17) << "v" << kFormatVersion << " in=" << abs.string() << " size=" << stamp.size
-     << " mtime=" << stamp.mtime << " terr=" << p.error_threshold << " alpha=" << p.feature_factor
+  os << std::setprecision(17) << "v" << kFormatVersion;
+  for (const std::string& input : inputs)
+  {
+    std::error_code ec;
+    const FileStamp stamp = stampOf(input);
+    os << " in=" << fs::absolute(input, ec).string() << " size=" << stamp.size << " mtime=" << stamp.mtime;
+  }
+  os << " terr=" << p.error_threshold << " alpha=" << p.feature_factor
      << " k=" << p.k_neighbors << " form=" << toString(p.error_form) << " adaptive=" << p.adaptive
      << " af=" << p.adaptive_factor << " cap=" << p.radius_cap_factor << " rep=" << p.max_representative_offset
      << " repcut=" << p.representative_cutoff << " rough=" << p.max_roughness
@@ -625,10 +628,15 @@ void forEachTile(const std::vector<int>& tiles, int workers, const std::function
 class Runner
 {
 public:
-  Runner(const std::string& input, const std::string& output, const Parameters& params,
+  Runner(const std::vector<std::string>& inputs, const std::string& output, const Parameters& params,
          const StreamOptions& options)
-    : input_(input), output_(output), params_(params), options_(options)
+    : inputs_(inputs), output_(output), params_(params), options_(options)
   {
+    if (inputs_.empty())
+      throw std::invalid_argument("no input files");
+    // Messages name the input: the file, or the first of several.
+    input_ = inputs_.size() == 1 ? inputs_[0]
+                                 : inputs_[0] + " (and " + std::to_string(inputs_.size() - 1) + " more)";
   }
 
   StreamSummary run();
@@ -722,6 +730,7 @@ private:
   void writeOutput();
   void runStage(const char* name, int index, const std::vector<int>& todo, const std::function<void(int)>& fn);
 
+  std::vector<std::string> inputs_;
   std::string input_, output_;
   Parameters params_;
   StreamOptions options_;
@@ -998,7 +1007,7 @@ void Runner::split()
   // Where the finite points are: a binary input's own records (input index = record number,
   // the non-finite ones skipped again), else pass 1's copy (input index, record).
   const bool from_input = readTwice();
-  const fs::path source = from_input ? fs::path(input_) : paths_.points();
+  const fs::path source = from_input ? fs::path(inputs_[0]) : paths_.points();
   const std::size_t record = from_input ? step : 8 + step;
   const std::uint64_t records = from_input ? plan_.input_points : plan_.finite_points;
   const std::uint64_t offset = from_input ? data_offset_ : 0;
@@ -1870,15 +1879,15 @@ void Runner::prepare(bool plan_if_missing)
 
   paths_.root = options_.scratch_dir.empty() ? fs::path(output_ + ".ecs-scratch") : fs::path(options_.scratch_dir);
   const std::string fingerprint =
-      fingerprintOf(input_, params_, memory_limit_) + " tile=" + std::to_string(options_.max_tile_points);
+      fingerprintOf(inputs_, params_, memory_limit_) + " tile=" + std::to_string(options_.max_tile_points);
   // The header first: bad input is refused before any work. The same reader then does the scan
   // (the input is opened and read once).
-  io::RecordSource reader(input_);
+  io::RecordSource reader(inputs_);
   header_ = reader.header();
   records_in_input_ = reader.recordsInFile(data_offset_);
   if (reader.las())
     las_ = std::make_unique<io::LasInfo>(*reader.las());
-  input_stamp_ = stampOf(input_);
+  input_stamp_ = stampOf(inputs_[0]);
   // The limit is a promise: refused at once when this process cannot keep to it. The plan counts
   // a fixed allowance for the process itself (pcd_simplify holds about 30 MiB at the start), not
   // its measured size, so that one input and one limit give one plan and one output in any
@@ -2146,15 +2155,22 @@ struct TiledRun::Impl
 {
   Runner runner;
   bool prepared = false;
-  Impl(const std::string& input, const std::string& output, const Parameters& params, const StreamOptions& options)
-    : runner(input, output, params, options)
+  Impl(const std::vector<std::string>& inputs, const std::string& output, const Parameters& params,
+       const StreamOptions& options)
+    : runner(inputs, output, params, options)
   {
   }
 };
 
 TiledRun::TiledRun(const std::string& input, const std::string& output, const Parameters& params,
                    const StreamOptions& options)
-  : impl_(std::make_unique<Impl>(input, output, params, options))
+  : TiledRun(std::vector<std::string>{input}, output, params, options)
+{
+}
+
+TiledRun::TiledRun(const std::vector<std::string>& inputs, const std::string& output, const Parameters& params,
+                   const StreamOptions& options)
+  : impl_(std::make_unique<Impl>(inputs, output, params, options))
 {
 }
 
@@ -2199,7 +2215,13 @@ StreamSummary TiledRun::finish()
 StreamSummary simplifyOutOfCore(const std::string& input, const std::string& output, const Parameters& params,
                                 const StreamOptions& options)
 {
-  Runner runner(input, output, params, options);
+  return simplifyOutOfCore(std::vector<std::string>{input}, output, params, options);
+}
+
+StreamSummary simplifyOutOfCore(const std::vector<std::string>& inputs, const std::string& output,
+                                const Parameters& params, const StreamOptions& options)
+{
+  Runner runner(inputs, output, params, options);
   return runner.run();
 }
 

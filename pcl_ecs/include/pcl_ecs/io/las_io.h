@@ -101,6 +101,12 @@ bool lazSupported();
 LasInfo defaultLasInfo(const std::vector<pcl::PCLPointField>& fields, const std::array<double, 3>& lo,
                        const std::array<double, 3>& hi);
 
+/** \brief Make `info`'s scale and offset hold the box [lo, hi] in 32-bit integers: unchanged when
+ * they do; else the offset becomes the box centre rounded down to an integer and, if that is not
+ * enough, the scale grows by powers of ten until it is (the tiles of a survey, each with its own
+ * offset, written as one file). */
+void fitLasFrame(LasInfo& info, const std::array<double, 3>& lo, const std::array<double, 3>& hi);
+
 /** \brief The points of a LAS or LAZ file a chunk at a time, in the layout parseLas gives them
  * (for files larger than memory: `pcd_simplify --stream`). Memory: one chunk and the header's
  * VLRs and EVLRs (at most 256 MiB of them). */

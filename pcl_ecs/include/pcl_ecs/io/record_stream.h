@@ -21,13 +21,19 @@ namespace io
 {
 
 /** \brief Reads a PCD (PcdStreamReader), LAS or LAZ file (LasStreamReader), chosen by its
- * extension. */
+ * extension; or several such files one after the other as one cloud (the tiles of a survey). */
 class RecordSource
 {
 public:
   /** \brief Open `path` and read its header. Throws FileError (also for a format other than
    * PCD, LAS and LAZ) or FormatError, prefixed with the path. */
   explicit RecordSource(const std::string& path);
+  /** \brief Several files read in the order given, as one: every header is read here, and every
+   * file's records must have the first's layout (the same fields, types and record size: for
+   * LAS, the same point format and extra bytes; scale and offset may differ). The LAS header of
+   * the first is the cloud's. Throws as for one file, or FormatError naming the file whose
+   * layout differs. */
+  explicit RecordSource(const std::vector<std::string>& paths);
   ~RecordSource();
   RecordSource(const RecordSource&) = delete;
   RecordSource& operator=(const RecordSource&) = delete;
@@ -43,10 +49,20 @@ public:
   const LasInfo* las() const;
 
 private:
+  void open(std::size_t k);
+
+  std::vector<std::string> paths_;
+  std::vector<std::uint64_t> counts_;  // points of each file
+  std::size_t current_ = 0;            // the file being read
   PcdHeader header_;
   std::unique_ptr<PcdStreamReader> pcd_;
   std::unique_ptr<LasStreamReader> las_;
+  std::unique_ptr<LasInfo> las_info_;  // the first file's
 };
+
+/** \brief The files an input argument names: a file itself, or the .pcd, .las and .laz files of a
+ * directory sorted by name (an archive's tiles). Throws FileError for a directory without any. */
+std::vector<std::string> recordInputs(const std::vector<std::string>& args);
 
 /** \brief Writes records to a binary PCD (PcdStreamWriter), LAS or LAZ file (LasStreamWriter),
  * chosen by the extension of `path`; nothing appears at `path` before commit(). */

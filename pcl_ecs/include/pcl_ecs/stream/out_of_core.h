@@ -110,6 +110,10 @@ struct LimitError : std::runtime_error
  * Parameters::target_size is not supported here (refused). */
 StreamSummary simplifyOutOfCore(const std::string& input, const std::string& output,
                                 const Parameters& params, const StreamOptions& options);
+/** \brief simplifyOutOfCore on several files read one after the other as one cloud (the tiles of
+ * a survey; io::RecordSource says what they must share). */
+StreamSummary simplifyOutOfCore(const std::vector<std::string>& inputs, const std::string& output,
+                                const Parameters& params, const StreamOptions& options);
 
 /** \brief The out-of-core run as tasks, for a scheduler of the caller's (pcl_ecs.distributed
  * runs them on Dask): prepare() once (the scan, the plan and the split), then runTask() for every
@@ -124,6 +128,8 @@ class TiledRun
 {
 public:
   TiledRun(const std::string& input, const std::string& output, const Parameters& params,
+           const StreamOptions& options);
+  TiledRun(const std::vector<std::string>& inputs, const std::string& output, const Parameters& params,
            const StreamOptions& options);
   ~TiledRun();
   TiledRun(const TiledRun&) = delete;
