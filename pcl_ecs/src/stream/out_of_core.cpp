@@ -91,7 +91,11 @@ std::uint64_t residentBytes()
 // ---- scratch files: written under a temporary name, renamed when complete -------------------
 void writeFileAtomic(const fs::path& path, const void* data, std::size_t bytes)
 {
-  const fs::path tmp = path.string() + ".tmp";
+  // A name of this process and call: two processes that write the same file (a task run again
+  // while a worker thought lost still runs it) never write into one temporary; the last rename
+  // wins, with the same bytes.
+  static std::atomic<std::uint64_t> serial{0};
+  const fs::path tmp = path.string() + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(serial++);
   {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
     f.write(static_cast<const char*>(data), static_cast<std::streamsize>(bytes));
@@ -395,6 +399,10 @@ struct Paths
   fs::path order(int t) const { return root / "a" / (std::to_string(t) + ".order"); }
   fs::path dens(int t) const { return root / "b" / (std::to_string(t) + ".dens"); }
   fs::path sumB(int t) const { return root / "b" / (std::to_string(t) + ".sum"); }
+  /// Every tile's stage A (B) sums added up in tile order, written by the first reader once they
+  /// are all there, so that each later task reads one file instead of one per tile.
+  fs::path totalA() const { return root / "a" / "total.sum"; }
+  fs::path totalB() const { return root / "b" / "total.sum"; }
   fs::path out(int t) const { return root / "c" / (std::to_string(t) + ".out"); }
   fs::path doneC(int t) const { return root / "c" / (std::to_string(t) + ".done"); }
   fs::path gapCandidates(int t) const { return root / "c" / (std::to_string(t) + ".gapc"); }
@@ -1964,18 +1972,33 @@ void Runner::prepare(bool plan_if_missing)
   normal_fields_ = {header_.fieldIndex("normal_x"), header_.fieldIndex("normal_y"), header_.fieldIndex("normal_z")};
 }
 
+/// The element-wise sum, in tile order, of the `n` values of every tile's `sum(t)` file; kept in
+/// `total` (written atomically by whoever adds them up first: the same bytes whoever does).
+std::vector<double> tileTotals(const fs::path& total, int tiles, std::size_t n,
+                               const std::function<fs::path(int)>& sum)
+{
+  if (fs::exists(total))
+  {
+    auto v = readVector<double>(total);
+    if (v.size() == n)
+      return v;
+  }
+  std::vector<double> v(n, 0.0);
+  for (int t = 0; t < tiles; ++t)
+  {
+    const auto s = readVector<double>(sum(t));
+    for (std::size_t i = 0; i < n; ++i)
+      v[i] += s.at(i);
+  }
+  writeVectorAtomic(total, v);
+  return v;
+}
+
 void Runner::globalsAfterA()
 {
   const int tiles = static_cast<int>(plan_.tree.tiles.size());
-  double sum_measure = 0.0, count = 0.0, incomplete = 0.0, merged = 0.0;
-  for (int t = 0; t < tiles; ++t)
-  {
-    const auto s = readVector<double>(paths_.sumA(t));
-    sum_measure += s.at(0);
-    count += s.at(1);
-    incomplete += s.at(2);
-    merged += s.at(3);
-  }
+  const auto v = tileTotals(paths_.totalA(), tiles, 4, [&](int t) { return paths_.sumA(t); });
+  const double sum_measure = v[0], count = v[1], incomplete = v[2], merged = v[3];
   summary_.merged_points = static_cast<std::uint64_t>(merged);
   delta_ = params_.feature_factor * sum_measure / count;
   summary_.feature_threshold = delta_ / plan_.scale();
@@ -1985,13 +2008,7 @@ void Runner::globalsAfterA()
 int Runner::globalsAfterB(bool warn)
 {
   const int tiles = static_cast<int>(plan_.tree.tiles.size());
-  double sb[6] = {0, 0, 0, 0, 0, 0};
-  for (int t = 0; t < tiles; ++t)
-  {
-    const auto s = readVector<double>(paths_.sumB(t));
-    for (std::size_t i = 0; i < 6; ++i)
-      sb[i] += s.at(i);
-  }
+  const auto sb = tileTotals(paths_.totalB(), tiles, 6, [&](int t) { return paths_.sumB(t); });
   summary_.search_fallback_tiles = static_cast<std::uint64_t>(sb[5]);
   const double nonfeature = std::max(1.0, sb[3]);
   mean_spacing_ = sb[0] / nonfeature;
