@@ -183,6 +183,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                     help="the tiles' memory budget, as pcd_simplify --stream (default 1G)")
     ap.add_argument("--tile-points", type=int, default=0, metavar="N", help="largest tile (default: from the limit)")
     ap.add_argument("--keep-scratch", action="store_true", help="keep the scratch directory after success")
+    ap.add_argument("--stats", metavar="FILE", help="write the run's summary as JSON to FILE")
     ap.add_argument("--no-adapt", action="store_true", help="do not adapt T_err to curvature and density")
     for flag, name, kind in _FLAGS:
         ap.add_argument(flag, dest=name, type=kind, default=None, metavar=name.upper())
@@ -215,6 +216,13 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except (RuntimeError, OSError) as e:
         print(f"python -m pcl_ecs.distributed: {e}", file=sys.stderr)
         return 4
+    if o.stats:
+        import json
+        tmp = f"{o.stats}.tmp.{os.getpid()}"
+        with open(tmp, "w") as f:
+            json.dump(dict(s, tool="python -m pcl_ecs.distributed", inputs=list(o.inputs), output=o.output,
+                           parameters=params), f, indent=2)
+        os.replace(tmp, o.stats)
     if not o.quiet:
         print(summary_line(o.output, s, params.get("error_threshold", _parameters({}).error_threshold)))
     return 0

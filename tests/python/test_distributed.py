@@ -123,17 +123,21 @@ def test_a_driver_stopped_and_started_again_skips_what_was_done(scan, tmp_path):
     assert (tmp_path / "out.pcd").read_bytes() == (scan / "ref.pcd").read_bytes()
 
 
-def test_a_corrupt_input_stops_the_run_naming_it(tools, cluster, tmp_path):
-    laz = tmp_path / "scan.laz"
-    subprocess.run([str(tools / "pcd_make_scan"), str(MESH), str(laz), "--points", "300000", "--quiet"], check=True)
-    data = laz.read_bytes()
-    laz.write_bytes(data[: len(data) // 2])  # a transfer cut short
-    with pytest.raises(ValueError, match="scan.laz.*truncated or corrupt"):
-        simplify_distributed(laz, tmp_path / "out.laz", cluster, tmp_path / "scratch", memory_limit="512M")
+def test_a_corrupt_tile_among_the_inputs_stops_the_run_naming_it(tools, cluster, tmp_path):
+    tiles = tmp_path / "tiles"
+    tiles.mkdir()
+    for i in range(3):
+        subprocess.run([str(tools / "pcd_make_scan"), str(MESH), str(tiles / f"t{i}.laz"), "--points", "100000",
+                        "--quiet", "--seed", str(i + 1)], check=True)
+    bad = tiles / "t1.laz"
+    data = bad.read_bytes()
+    bad.write_bytes(data[: len(data) // 2])  # a transfer cut short
+    with pytest.raises(ValueError, match="t1.laz.*truncated or corrupt"):
+        simplify_distributed(tiles, tmp_path / "out.laz", cluster, tmp_path / "scratch", memory_limit="512M")
     assert not (tmp_path / "out.laz").exists()
     # The command line says the same, exit 3.
-    r = subprocess.run([sys.executable, "-m", "pcl_ecs.distributed", str(laz), str(tmp_path / "out.laz"),
+    r = subprocess.run([sys.executable, "-m", "pcl_ecs.distributed", str(tiles), str(tmp_path / "out.laz"),
                         "--local", "1", "--scratch", str(tmp_path / "scratch"), "--quiet", "--memory-limit", "512M"],
                        capture_output=True, text=True)
-    assert r.returncode == 3 and "scan.laz" in r.stderr, r.stderr
+    assert r.returncode == 3 and "t1.laz" in r.stderr, r.stderr
     assert not (tmp_path / "out.laz").exists()
