@@ -56,16 +56,22 @@ namespace las
 /// Bytes `n` at `offset` of a file (fewer at its end).
 using ReadAt = std::function<std::string(std::uint64_t offset, std::size_t n)>;
 
-/// Everything before (and after) a file's points: the header, its VLRs and EVLRs.
-struct Layout
+/// What the fixed part of a LAS header says of the points.
+struct Header
 {
   std::uint8_t minor = 0;
   std::uint16_t header_size = 0;
   std::uint32_t point_offset = 0;
+  std::uint32_t vlr_count = 0;
   int format = 0;
   bool compressed = false;
   std::uint16_t record_length = 0;
   std::uint64_t points = 0;
+};
+
+/// Everything before (and after) a file's points: the header, its VLRs and EVLRs.
+struct Layout : Header
+{
   std::uint64_t evlr_start = 0, evlr_count = 0;
   LasInfo info;                        ///< VLRs and EVLRs without the LASzip VLR
   std::vector<std::uint8_t> laszip;    ///< the LASzip VLR's payload

@@ -150,18 +150,7 @@ std::string fixedString(const std::string& bytes, std::size_t offset, std::size_
   return end == std::string::npos ? s : s.substr(0, end);
 }
 
-
-struct HeaderView
-{
-  std::uint8_t minor = 0;
-  std::uint16_t header_size = 0;
-  std::uint32_t point_offset = 0;
-  std::uint32_t vlr_count = 0;
-  int format = 0;
-  bool compressed = false;
-  std::uint16_t record_length = 0;
-  std::uint64_t points = 0;
-};
+using HeaderView = las::Header;
 
 HeaderView readHeader(const std::string& bytes, std::uint64_t file_size)
 {
@@ -313,13 +302,7 @@ Layout readLayout(const std::string& head, std::uint64_t file_size, const ReadAt
 {
   const HeaderView h = readHeader(head, file_size);
   Layout l;
-  l.minor = h.minor;
-  l.header_size = h.header_size;
-  l.point_offset = h.point_offset;
-  l.format = h.format;
-  l.compressed = h.compressed;
-  l.record_length = h.record_length;
-  l.points = h.points;
+  static_cast<Header&>(l) = h;
   LasInfo& li = l.info;
   li.version_minor = h.minor;
   li.point_format = static_cast<std::uint8_t>(h.format);

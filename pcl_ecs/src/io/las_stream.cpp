@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 
 namespace pcl_ecs
 {
@@ -37,12 +38,7 @@ struct LasStreamReader::Impl
   std::uint64_t read = 0;
   std::vector<std::uint8_t> raw;
 #ifdef PCL_ECS_HAVE_LAZ
-  EcsLazReader* laz = nullptr;
-  ~Impl()
-  {
-    if (laz)
-      ecs_laz_reader_close(laz);
-  }
+  std::unique_ptr<EcsLazReader, void (*)(EcsLazReader*)> laz{nullptr, ecs_laz_reader_close};
 #endif
 
   std::string readAt(std::uint64_t offset, std::size_t n)
@@ -88,9 +84,11 @@ LasStreamReader::LasStreamReader(const std::string& path) : impl_(std::make_uniq
     {
 #ifdef PCL_ECS_HAVE_LAZ
       char err[512] = {};
+      EcsLazReader* reader = nullptr;
       if (ecs_laz_reader_open(path.c_str(), m.layout.point_offset, m.layout.laszip.data(), m.layout.laszip.size(),
-                              m.layout.points, m.layout.record_length, &m.laz, err, sizeof err) != 0)
+                              m.layout.points, m.layout.record_length, &reader, err, sizeof err) != 0)
         fail(err);
+      m.laz.reset(reader);
 #else
       fail("LAZ is not supported by this build of pcl_ecs (built with -DPCL_ECS_WITH_LAZ=OFF: see docs/LAS.md)");
 #endif
@@ -121,7 +119,7 @@ std::size_t LasStreamReader::read(std::size_t max_points, std::vector<std::uint8
   {
 #ifdef PCL_ECS_HAVE_LAZ
     char err[512] = {};
-    if (ecs_laz_reader_read(m.laz, m.raw.data(), n, err, sizeof err) != 0)
+    if (ecs_laz_reader_read(m.laz.get(), m.raw.data(), n, err, sizeof err) != 0)
       throw FormatError(m.path + ": " + err);
 #endif
   }
@@ -151,12 +149,7 @@ struct LasStreamWriter::Impl
   std::fstream file;  // uncompressed: the records go here
   std::vector<std::uint8_t> buf;
 #ifdef PCL_ECS_HAVE_LAZ
-  EcsLazWriter* laz = nullptr;
-  ~Impl()
-  {
-    if (laz)
-      ecs_laz_writer_free(laz);
-  }
+  std::unique_ptr<EcsLazWriter, void (*)(EcsLazWriter*)> laz{nullptr, ecs_laz_writer_free};
 #endif
 
   Impl(const std::string& path, const std::vector<pcl::PCLPointField>& fields, std::uint32_t step,
@@ -199,8 +192,10 @@ LasStreamWriter::LasStreamWriter(const std::string& path, const std::vector<pcl:
   {
 #ifdef PCL_ECS_HAVE_LAZ
     char err[512] = {};
-    if (ecs_laz_writer_open(m.out.tempPath().c_str(), m.laszip.data(), m.laszip.size(), &m.laz, err, sizeof err) != 0)
+    EcsLazWriter* writer = nullptr;
+    if (ecs_laz_writer_open(m.out.tempPath().c_str(), m.laszip.data(), m.laszip.size(), &writer, err, sizeof err) != 0)
       m.writeFailed(err);
+    m.laz.reset(writer);
 #endif
   }
   else
@@ -225,7 +220,7 @@ void LasStreamWriter::append(const std::uint8_t* records, std::size_t n)
   {
 #ifdef PCL_ECS_HAVE_LAZ
     char err[512] = {};
-    if (ecs_laz_writer_write(m.laz, m.buf.data(), n, m.info.record_length, err, sizeof err) != 0)
+    if (ecs_laz_writer_write(m.laz.get(), m.buf.data(), n, m.info.record_length, err, sizeof err) != 0)
       m.writeFailed(err);
 #endif
   }
@@ -244,9 +239,8 @@ void LasStreamWriter::commit()
   {
 #ifdef PCL_ECS_HAVE_LAZ
     char err[512] = {};
-    EcsLazWriter* w = m.laz;
-    m.laz = nullptr;  // finish frees it, whatever it returns
-    if (ecs_laz_writer_finish(w, err, sizeof err) != 0)
+    // finish frees the writer, whatever it returns
+    if (ecs_laz_writer_finish(m.laz.release(), err, sizeof err) != 0)
       m.writeFailed(err);
     m.file.open(m.out.tempPath(), std::ios::binary | std::ios::in | std::ios::out);
 #endif
