@@ -623,7 +623,7 @@ void parseLas(const std::string& bytes, pcl::PCLPointCloud2& cloud, LasInfo* inf
     fail("it holds ", n, " points, more than a cloud can (2^32 - 1)");
   std::vector<std::uint8_t> raw;
   const std::uint8_t* rec = reinterpret_cast<const std::uint8_t*>(bytes.data()) + l.point_offset;
-  if (l.compressed)
+  if (l.compressed && n > 0)  // no points: nothing to decompress (the chunked reader agrees)
   {
 #ifdef PCL_ECS_HAVE_LAZ
     raw.resize(n * l.record_length);

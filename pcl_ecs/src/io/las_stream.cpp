@@ -80,7 +80,7 @@ LasStreamReader::LasStreamReader(const std::string& path) : impl_(std::make_uniq
       return m.readAt(offset, n);
     });
     fields_ = las::cloudFields(m.layout.format, m.layout.extra(), step_);
-    if (m.layout.compressed)
+    if (m.layout.compressed && m.layout.points > 0)  // no points: nothing to decompress
     {
 #ifdef PCL_ECS_HAVE_LAZ
       char err[512] = {};
