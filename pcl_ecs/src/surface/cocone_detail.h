@@ -1,0 +1,254 @@
+// cocone_detail.h — what the steps of the Cocone reconstruction (cocone.h) share: the flat arrays
+// between steps, the edge index, small geometric helpers and the steps' functions, one source
+// file each (cocone_delaunay.cpp, cocone_poles.cpp, cocone_test.cpp, cocone_extract.cpp,
+// cocone_cleanup.cpp; cocone.cpp runs them in order). Not installed.
+#pragma once
+
+#include <pcl_ecs/surface/cocone.h>
+
+#include "../radix_sort.h"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <numeric>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace pcl_ecs
+{
+namespace surface
+{
+namespace detail
+{
+constexpr double kPi = 3.14159265358979323846;
+constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+
+using Clock = std::chrono::steady_clock;
+inline double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+inline std::uint64_t edgeKey(std::uint32_t a, std::uint32_t b)
+{
+  if (a > b)
+    std::swap(a, b);
+  return (static_cast<std::uint64_t>(a) << 32) | b;
+}
+
+/** Edge → triangles incidence over a fixed triangle array (sorted pairs; deterministic). The edge
+ * groups of every triangle are recorded, so the triangles at an edge of a known triangle are found
+ * in constant time. The triangle array must outlive the index and stay unchanged. */
+class EdgeIndex
+{
+public:
+  using Pair = std::pair<std::uint64_t, std::uint32_t>;
+  explicit EdgeIndex(const std::vector<Triangle>& tris) : tris_(&tris)
+  {
+    pairs_.reserve(tris.size() * 3);
+    for (std::uint32_t t = 0; t < tris.size(); ++t)
+      for (int k = 0; k < 3; ++k)
+        pairs_.emplace_back(edgeKey(tris[t][k], tris[t][(k + 1) % 3]), t);
+    // By key, stably: the pairs are made in triangle order, so (key, triangle) order, as a sort
+    // of the pairs would give, in a few linear passes.
+    radixSortStable(pairs_, [](const Pair& p) { return p.first; });
+    tri_group_.assign(tris.size() * 3, 0);
+    for (std::uint32_t p = 0; p < pairs_.size(); ++p)
+    {
+      if (p == 0 || pairs_[p].first != pairs_[p - 1].first)
+        start_.push_back(p);
+      const auto g = static_cast<std::uint32_t>(start_.size() - 1);
+      const Triangle& tri = tris[pairs_[p].second];
+      for (int k = 0; k < 3; ++k)
+        if (edgeKey(tri[k], tri[(k + 1) % 3]) == pairs_[p].first)
+          tri_group_[3 * static_cast<std::size_t>(pairs_[p].second) + k] = g;
+    }
+    start_.push_back(static_cast<std::uint32_t>(pairs_.size()));
+  }
+  /** Triangles at edge ab, as a [first, last) range of (key, triangle) pairs (binary search). */
+  std::pair<const Pair*, const Pair*> at(std::uint32_t a, std::uint32_t b) const
+  {
+    const std::uint64_t key = edgeKey(a, b);
+    auto lo = std::lower_bound(pairs_.begin(), pairs_.end(), std::make_pair(key, std::uint32_t{0}));
+    auto hi = lo;
+    while (hi != pairs_.end() && hi->first == key)
+      ++hi;
+    return {pairs_.data() + (lo - pairs_.begin()), pairs_.data() + (hi - pairs_.begin())};
+  }
+  /** Triangles at edge ab of triangle t (constant time). */
+  std::pair<const Pair*, const Pair*> at(std::uint32_t t, std::uint32_t a, std::uint32_t b) const
+  {
+    const std::uint64_t key = edgeKey(a, b);
+    const Triangle& tri = (*tris_)[t];
+    for (int k = 0; k < 3; ++k)
+      if (edgeKey(tri[k], tri[(k + 1) % 3]) == key)
+      {
+        const std::uint32_t g = tri_group_[3 * static_cast<std::size_t>(t) + k];
+        return {pairs_.data() + start_[g], pairs_.data() + start_[g + 1]};
+      }
+    return at(a, b);
+  }
+  const std::vector<Pair>& pairs() const { return pairs_; }
+
+private:
+  const std::vector<Triangle>* tris_;
+  std::vector<Pair> pairs_;
+  std::vector<std::uint32_t> tri_group_, start_;
+};
+
+/** Angle (0, 2π] of the half-plane of triangle (a, b, c) around edge ab, measured from `u` towards
+ * `v` (u, v orthonormal, both normal to the edge). */
+inline double halfPlaneAngle(const Eigen::Vector3d& a, const Eigen::Vector3d& e, const Eigen::Vector3d& c,
+                      const Eigen::Vector3d& u, const Eigen::Vector3d& v)
+{
+  Eigen::Vector3d w = c - a;
+  w -= w.dot(e) * e;
+  double ang = std::atan2(w.dot(v), w.dot(u));
+  if (ang <= 0)
+    ang += 2 * kPi;
+  return ang;
+}
+
+/** The vertex of triangle t that is not a or b. */
+inline std::uint32_t apex(const Triangle& t, std::uint32_t a, std::uint32_t b)
+{
+  for (std::uint32_t x : t)
+    if (x != a && x != b)
+      return x;
+  return t[0];
+}
+
+struct UnionFind
+{
+  std::vector<std::uint32_t> parent;
+  explicit UnionFind(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
+  std::uint32_t find(std::uint32_t x)
+  {
+    while (parent[x] != x)
+      x = parent[x] = parent[parent[x]];
+    return x;
+  }
+  void unite(std::uint32_t a, std::uint32_t b)
+  {
+    a = find(a);
+    b = find(b);
+    if (a != b)
+      parent[std::max(a, b)] = std::min(a, b);
+  }
+};
+
+/** Largest angular gap between consecutive triangles around edge ab (2π for a single triangle). */
+inline double largestGap(const std::vector<Eigen::Vector3d>& pts, std::uint32_t a, std::uint32_t b,
+                  const std::vector<std::uint32_t>& apexes)
+{
+  if (apexes.size() < 2)
+    return 2 * kPi;
+  const Eigen::Vector3d e = (pts[b] - pts[a]).normalized();
+  Eigen::Vector3d u = pts[apexes[0]] - pts[a];
+  u -= u.dot(e) * e;
+  u.normalize();
+  const Eigen::Vector3d v = e.cross(u);
+  std::vector<double> ang;
+  ang.reserve(apexes.size());
+  for (std::uint32_t c : apexes)
+    ang.push_back(halfPlaneAngle(pts[a], e, pts[c], u, v));
+  std::sort(ang.begin(), ang.end());
+  double gap = ang.front() + 2 * kPi - ang.back();
+  for (std::size_t i = 1; i < ang.size(); ++i)
+    gap = std::max(gap, ang[i] - ang[i - 1]);
+  return gap;
+}
+
+
+/// The tetrahedra of step 1 as flat arrays: every later pass reads these instead of chasing CGAL's
+/// handles.
+struct CellArrays
+{
+  std::uint32_t count = 0;
+  std::vector<std::array<std::uint32_t, 4>> v;  ///< vertex ids (kNone: the infinite vertex)
+  std::vector<std::array<std::uint32_t, 4>> n;  ///< neighbour across the facet opposite vertex k
+};
+
+
+/// Step 2: per cell its circumcentre (or, on the hull, the direction of its Voronoi ray); per
+/// vertex the pole axis (to the farthest circumcentre; the outward hull normal on the hull) and
+/// h_p, the distance to the negative pole.
+struct Poles
+{
+  std::vector<Eigen::Vector3d> cc;  ///< per cell: circumcentre, or ray direction
+  std::vector<char> cell_kind;      ///< per cell: 0 invalid, 1 finite circumcentre, 2 infinite (ray)
+  std::vector<char> is_hull, is_vertex, has_axis;  ///< per point
+  std::vector<Eigen::Vector3d> axis;               ///< per point, unit where has_axis
+  std::vector<double> height;                      ///< per point: h_p
+};
+
+
+/// A Delaunay triangle whose dual Voronoi edge meets the cocone of at least one of its vertices.
+struct Facet
+{
+  Triangle v;
+  std::uint8_t accept;  ///< bit k: the dual edge meets vertex k's cocone
+  float radius[3];      ///< how far from vertex k the edge stays in its cocone
+};
+
+
+/// The walk's result: the extracted triangles in walk order (indices into the candidates) and the
+/// same triangles, consistently oriented.
+struct Extraction
+{
+  std::vector<std::uint32_t> order;
+  std::vector<Triangle> out;
+};
+
+/// Step 1: the Delaunay triangulation of the distinct finite points (of several at one position
+/// the first in input order is the vertex). False, with `error` set, when there is no volume.
+bool delaunayCells(const std::vector<Eigen::Vector3d>& points, CoconeStats& st, CellArrays& cells,
+                   std::string& error);
+
+/// Step 2: the poles of every vertex (Poles).
+Poles computePoles(const std::vector<Eigen::Vector3d>& points, const CellArrays& ca, CoconeStats& st);
+
+/// Step 3: the cocone test of every Delaunay triangle. `radius` gets r_p per vertex: how far the
+/// accepted dual edges stay in its cocone.
+std::vector<Facet> coconeFacets(const std::vector<Eigen::Vector3d>& points, const CellArrays& ca, const Poles& poles,
+                                const CoconeParameters& params, std::vector<double>& radius);
+
+/// Step 4 (Dey-Giesen): the regular samples, those whose cocone is thin and agrees with their
+/// cocone neighbours'; the others are boundary samples. Without boundary detection every vertex
+/// with an axis is regular.
+std::vector<char> regularSamples(const std::vector<Eigen::Vector3d>& points, const Poles& poles,
+                                 const std::vector<Facet>& facets, const std::vector<double>& radius,
+                                 const CoconeParameters& params, CoconeStats& st);
+
+/// The candidate triangles: those accepted by the cocones of all their regular vertices (at least
+/// one), without the ones that span a gap in the sampling, in a canonical order. `spacing` gets
+/// the local sample spacing per vertex (the median candidate edge length there).
+std::vector<Triangle> candidateTriangles(const std::vector<Eigen::Vector3d>& points, const std::vector<Facet>& facets,
+                                         const std::vector<char>& regular, const CoconeParameters& params,
+                                         CoconeStats& st, std::vector<double>& spacing);
+
+/// Step 5: prune the triangles at sharp edges (an angular gap above sharp_edge_angle) and those
+/// with two free edges, until none is left; returns which candidates are alive.
+std::vector<char> pruneCandidates(const std::vector<Eigen::Vector3d>& points, const std::vector<Triangle>& cand,
+                                  const EdgeIndex& edges, const CoconeParameters& params, CoconeStats& st);
+
+/// Step 6: walk the live candidates into oriented pieces, each edge crossed to the neighbour that
+/// turns least; seeds: first the hull's extreme-x vertex, then any unused triangle.
+Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std::vector<Triangle>& cand,
+                          const EdgeIndex& edges, const std::vector<char>& alive, const Poles& poles);
+
+/// Step 7: the walked triangles made an oriented 2-manifold (at most two triangles an edge, one
+/// fan a vertex), notches and small holes closed, loops sealed when asked, small components
+/// dropped (cocone_cleanup.cpp).
+std::vector<Triangle> cleanUp(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& spacing,
+                              const CoconeParameters& params, const std::vector<Triangle>& cand,
+                              const std::vector<char>& alive, const EdgeIndex& edges, Extraction& walked,
+                              CoconeStats& st);
+
+}  // namespace detail
+}  // namespace surface
+}  // namespace pcl_ecs
