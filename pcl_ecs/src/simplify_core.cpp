@@ -113,7 +113,7 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
   // The one K-neighbourhood query (eq. 1, 2, 3, 7-12 all read it).
   auto t = Clock::now();
   report("neighbours", 0.0);
-  BoxTreeSearch tree(false, threads);  // the filter hands the points over in Hilbert order
+  BoxTreeSearch tree(/*sorted=*/false, threads);  // unsorted radius results; the points come in Hilbert order
   tree.setInputCloud(cloud_ptr);
   NeighborhoodTable table;
   computeNeighborhoods(cloud, tree, k, threads, table);

@@ -53,8 +53,8 @@ int runToolMain(const char* tool, const std::function<int()>& body);
  * kernel (glibc: blocks up to 32 MiB from the heap, the heap top trimmed only past 1 GiB free).
  * A run allocates and frees a few large arrays per stage (per tile with --stream); with glibc's
  * defaults each comes back as fresh pages the kernel must fault in and zero again, and on a VM that
- * returns freed pages to its host each of those faults costs microseconds (docs/BENCHMARKS.md,
- * session 13). For short-lived batch tools; the streaming runner still trims when its resident
+ * returns freed pages to its host each of those faults costs microseconds (docs/BENCHMARKS.md).
+ * For short-lived batch tools; the streaming runner still trims when its resident
  * set passes half the memory limit. A no-op without glibc. */
 void keepFreedMemory();
 

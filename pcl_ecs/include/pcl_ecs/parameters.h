@@ -35,7 +35,7 @@ struct Parameters
 {
   /** \brief T_err, the error bound of a ball (paper eq. 15), as a fraction of L.
    * Range: (0, 1). Default 1e-3: with the normalized form a weighted RMS distance of 0.1% of L
-   * from a representative to the tangent planes it replaces (keeps about 8% of the Bunny). */
+   * from a representative to the tangent planes it replaces. */
   double error_threshold = 1e-3;
 
   /** \brief α, the feature factor of eq. 4: a point is a feature point when its measure exceeds
@@ -76,8 +76,7 @@ struct Parameters
   /** \brief The ball's optimised point x_min is its representative when it lies within this
    * fraction of the radius from the centre; otherwise the centre is. The paper's rule is 1 (inside
    * the ball). Range: (0, 1]. Default 0.5: an optimised point near the rim leaves the far side of the
-   * ball uncovered; bounding it lowers the coverage distance by a sixth to a third and, on the
-   * fandisk, the surface deviation too (docs/RESULTS.md). */
+   * ball uncovered; bounding it lowers the coverage distance (docs/RESULTS.md). */
   double max_representative_offset = 0.5;
 
   /** \brief The representative's own pseudo-inverse cutoff: the ball's point is the minimiser of
@@ -88,9 +87,7 @@ struct Parameters
    * directions of the quadric are tangential and ill-conditioned (noise in the normals moves the
    * minimiser along the surface by up to half the radius); holding them at the centre keeps the
    * output as evenly spread as the centres while the strong directions (across the surface, and
-   * across an edge) still move the point onto the fitted surface. Surface deviation 1-8% lower at
-   * the same output size on the bunny, fandisk, bun000 and mug scans, the same on the terrain
-   * (docs/RESULTS.md, session 14). */
+   * across an edge) still move the point onto the fitted surface (docs/RESULTS.md). */
   double representative_cutoff = 0.05;
 
   /** \brief A ball whose points scatter about their tangent planes by more than this fraction of
@@ -99,10 +96,7 @@ struct Parameters
    * describe a surface the planes agree on (vegetation, mixed returns, heavy noise) and an
    * optimised point lands between the layers. Range: (0, 10] (2 or more: never, Q(x_min) <= Q(c)
    * and every plane is within 2r of c). Default 0.2: balls on smooth surfaces scatter by a few
-   * hundredths of r (median 0.03 on the fandisk scan, 0.06 on bun000, 0.08 on the bunny; under 4%
-   * of their balls above 0.2), the shared terrain's by 0.25 (two thirds above 0.2), and keeping
-   * their centres brings its surface deviation at 3% kept within 5% of the best peer's
-   * (docs/RESULTS.md, session 14). */
+   * hundredths of r, balls on vegetation by more than 0.2 (docs/RESULTS.md). */
   double max_roughness = 0.2;
 
   /** \brief The gap bound (stages/gap_fill.h), in the T_err mode and out of core: after the
@@ -110,8 +104,7 @@ struct Parameters
    * an output point of its own, greedily, so that no input point is farther than
    * max_gap_factor × cap from the output (the paper's cover leaves up to 1.5 × cap where an
    * optimised point sits off its ball's centre). 0 turns it off (the paper's method). Range: 0 or
-   * (0, 100]. Default 1: no point farther than the largest ball radius from the output (+4% points
-   * at T_err 1e-3 on a 1M-point scan, none on the bunny). */
+   * (0, 100]. Default 1: no point farther than the largest ball radius from the output. */
   double max_gap_factor = 1.0;
 
   /** \brief The gap bound in target-size mode, as a multiple of the cap the target implies

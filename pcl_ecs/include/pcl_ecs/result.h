@@ -28,7 +28,7 @@ struct Ball
   double tolerance = 0.0;    ///< T_err used for this ball, after step 5
   double error = 0.0;        ///< E(r) reached; never above tolerance
   std::size_t replaced = 0;  ///< input points this ball covered (c included)
-  bool used_centre = false;  ///< true when x_min fell outside the ball and v = c
+  bool used_centre = false;  ///< v = c: the ball was too rough, or its minimiser too far from c (ball_cover.h)
   std::size_t output_index = 0;  ///< index of v in the output cloud
 };
 

@@ -907,7 +907,7 @@ void Runner::scanAndPlan(io::RecordSource& reader)
   if (morton.size() <= static_cast<std::size_t>(k))
     failRun(input_ + ": only " + std::to_string(morton.size()) + " distinct points in the planning sample; K = " +
             std::to_string(k) + " needs more");
-  BoxTreeSearch tree(false, threads);
+  BoxTreeSearch tree(/*sorted=*/false, threads);
   tree.setInputCloud(local);
   const int j = spacing_fraction >= 1.0 ? k : std::min<int>(8, static_cast<int>(morton.size()) - 1);
   const double scale = spacing_fraction >= 1.0 ? 1.0 : std::sqrt(static_cast<double>(k) * spacing_fraction / j);
@@ -1374,7 +1374,7 @@ void Runner::phaseA(int t)
   const int k = params_.k_neighbors;
   if (n <= static_cast<std::size_t>(k))
     failRun("tile " + std::to_string(t) + " holds only " + std::to_string(n) + " points; K = " + std::to_string(k));
-  BoxTreeSearch tree(false, tile_threads_);  // tiles are in Hilbert order
+  BoxTreeSearch tree(/*sorted=*/false, tile_threads_);  // unsorted radius results; a tile is in Hilbert order
   tree.setInputCloud(d.cloud);
   NeighborhoodTable table;
   computeNeighborhoods(*d.cloud, tree, k, tile_threads_, table);
@@ -1542,7 +1542,7 @@ void Runner::phaseB(int t)
   }
   TileData d = loadTile(t);
   const std::vector<std::uint8_t> is_feature = attr.features(delta_);
-  BoxTreeSearch tree(false, tile_threads_);  // tiles are in Hilbert order
+  BoxTreeSearch tree(/*sorted=*/false, tile_threads_);  // unsorted radius results; a tile is in Hilbert order
   tree.setInputCloud(d.cloud);
   NeighborhoodTable table;
   computeNeighborhoods(*d.cloud, tree, params_.k_neighbors, tile_threads_, table);
@@ -1627,7 +1627,7 @@ void Runner::phaseC(int t)
         pre_covered[i] = 1;
   }
 
-  BoxTreeSearch tree(false, tile_threads_);  // tiles are in Hilbert order
+  BoxTreeSearch tree(/*sorted=*/false, tile_threads_);  // unsorted radius results; a tile is in Hilbert order
   tree.setInputCloud(d.cloud);
   CoverInput in{*d.cloud,          normals,      weights,     is_feature, curvature, density, mean_abs_h_,
                 mean_spacing_,     neighborhood_radius_, summary_.bbox_diagonal * plan_.scale(), tree};

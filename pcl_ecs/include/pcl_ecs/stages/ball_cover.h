@@ -5,8 +5,12 @@
 //   5. with the tolerance adapted to c's curvature and density (adaptive_tolerance.h);
 //   6. cover the points projected strictly inside the hull of the ball (hull_coverage.h);
 //   7. until no point is uncovered.
-// The representative is x_min when |x_min - c| < r, otherwise c (a sharp region that slipped past
-// the feature test). One radius query per ball (re-issued larger only if the bracket outgrows it)
+// The representative is the minimiser of the ball's quadric along its well-determined directions
+// (Parameters::representative_cutoff; at c along the others), unless the ball's points scatter
+// about their planes by more than Parameters::max_roughness × r or that minimiser lies
+// Parameters::max_representative_offset × r or farther from c: then c itself (the paper's rule
+// is |x_min - c| < r: farther means a sharp region that slipped past the feature test). Its
+// attributes are those of the member nearest to it. One radius query per ball (re-issued larger only if the bracket outgrows it)
 // serves every bisection step and the coverage.
 //
 // Parallel and deterministic: the centres are bucketed into cells of side > 2·cap coloured by the
