@@ -62,6 +62,9 @@ def _task(args, params: Dict[str, Any], stage: str, tile: int, *after) -> bool:
             params = dict(params, threads=get_worker().state.nthreads)
         except ValueError:  # not in a worker (called directly)
             pass
+    # As pcd_simplify does: freed memory stays in the worker for the next task instead of coming
+    # back as fresh pages the kernel faults in and zeroes again (a quarter of a task's time here).
+    _core._keep_freed_memory()
     run = _open(args, params)
     run.prepare(False)
     _kill_for_tests(stage, tile)

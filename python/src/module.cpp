@@ -2,6 +2,7 @@
 // python/pcl_ecs/__init__.py; this module gives it the Parameters struct (every field, with the
 // library's defaults and validate()), the run on numpy arrays through the same code as
 // pcd_simplify (tools/common/cloud_simplify.cpp), the cloud readers and writers, and Cocone.
+#include "common/cli.h"
 #include "common/cloud_simplify.h"
 
 #include <pcl_ecs/io/cloud_convert.h>
@@ -436,6 +437,9 @@ NB_MODULE(_core, m)
            },
            "stage"_a, "tile"_a)
       .def("finish", [](TiledRun& r) { return streamSummary(translated([&] { return r.finish(); })); });
+  m.def("_keep_freed_memory", &pcl_ecs::tools::keepFreedMemory,
+        "Keep freed memory in this process for the next task instead of faulting it in again "
+        "(what pcd_simplify does; for a process that runs the out-of-core tasks)");
   m.def("_record_inputs", [](const std::vector<std::string>& args) {
     try
     {
