@@ -48,8 +48,8 @@ Options:
   --help
 
 Example:
-  pcd_make_scan ../shared/data/bunny_mesh.ply big.pcd --points 50000000 --scans 8
-  pcd_make_scan ../shared/data/bunny_mesh.ply big.laz --points 50000000 --scale 100 --offset 512000 4100000 200
+  pcd_make_scan bunny_mesh.ply big.pcd --points 50000000 --scans 8
+  pcd_make_scan bunny_mesh.ply big.laz --points 50000000 --scale 100 --offset 512000 4100000 200
 )";
 
 struct Tri

@@ -2,6 +2,7 @@
 #include <pcl_ecs/io/record_stream.h>
 
 #include <algorithm>
+#include <array>
 #include <filesystem>
 
 namespace pcl_ecs
@@ -51,9 +52,15 @@ RecordSource::RecordSource(const std::vector<std::string>& paths) : paths_(paths
     if (paths_.size() > 1 && !std::filesystem::is_regular_file(p, ec))
       throw FileError(p + ": not a regular file (files read as one cloud are each opened twice)");
   PcdHeader first;
+  // The coarsest scale of the LAS files (a finer one would claim a precision some points do not
+  // have); RecordSink fits the offset to the whole box.
+  std::array<double, 3> coarsest{{0.0, 0.0, 0.0}};
   for (std::size_t k = paths_.size(); k-- > 0;)  // the first file stays open, to be read first
   {
     open(k);
+    if (las_)
+      for (int a = 0; a < 3; ++a)
+        coarsest[a] = std::max(coarsest[a], las_->info().scale[a]);
     if (k + 1 < paths_.size() && !sameLayout(header_, first))
       throw FormatError(paths_[k + 1] + ": its points have other fields than " + paths_[k] + "'s (" +
                         fieldList(first) + " against " + fieldList(header_) +
@@ -63,15 +70,8 @@ RecordSource::RecordSource(const std::vector<std::string>& paths) : paths_(paths
   }
   if (las_)
   {
-    // The first file's header, at the coarsest scale of them all (a finer one would claim a
-    // precision some points do not have); RecordSink fits the offset to the whole box.
-    las_info_ = std::make_unique<LasInfo>(las_->info());
-    for (std::size_t k = 1; k < paths_.size(); ++k)
-    {
-      LasStreamReader other(paths_[k]);
-      for (int a = 0; a < 3; ++a)
-        las_info_->scale[a] = std::max(las_info_->scale[a], other.info().scale[a]);
-    }
+    las_info_ = std::make_unique<LasInfo>(las_->info());  // the first file's header
+    las_info_->scale = coarsest;
   }
   std::uint64_t total = 0;
   for (const std::uint64_t c : counts_)
