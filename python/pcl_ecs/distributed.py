@@ -63,7 +63,7 @@ def _task(args, params: Dict[str, Any], stage: str, tile: int, *after) -> bool:
         except ValueError:  # not in a worker (called directly)
             pass
     # As pcd_simplify does: freed memory stays in the worker for the next task instead of coming
-    # back as fresh pages the kernel faults in and zeroes again (a quarter of a task's time here).
+    # back as fresh pages the kernel faults in and zeroes again (about a tenth of a stage A task).
     _core._keep_freed_memory()
     run = _open(args, params)
     run.prepare(False)
