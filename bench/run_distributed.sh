@@ -13,7 +13,7 @@ py=${PYTHON:-build/venv-tests/bin/python}
 data=${PCL_ECS_BENCH_DATA:-/tmp/pcl_ecs_dist_bench}
 limit=${PCL_ECS_BENCH_LIMIT:-1G}
 mkdir -p "$data" bench/results
-bash scripts/build.sh >/dev/null
+bash scripts/build.sh -DPCL_ECS_BUILD_TOOLS=ON -DPCL_ECS_BUILD_BENCH=ON >/dev/null
 scan="$data/scan_$n.pcd"
 [ -f "$scan" ] || build/tools/pcd_make_scan ../shared/data/bunny_mesh.ply "$scan" --points "$n" --scans 8 --quiet
 out=bench/results/distributed.md

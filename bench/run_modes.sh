@@ -9,7 +9,7 @@ here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
 build=${BUILD_DIR:-$root/build}
 data=${PCL_ECS_SHARED_DATA_DIR:-$root/../shared/data}
-cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release > /dev/null
+cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPCL_ECS_BUILD_TOOLS=ON -DPCL_ECS_BUILD_BENCH=ON > /dev/null
 cmake --build "$build" --target pcd_simplify pcd_make_scan bench_throughput > /dev/null
 if [[ ! -x $here/.venv-modes/bin/python ]]; then
   python3 -m venv "$here/.venv-modes"

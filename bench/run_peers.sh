@@ -8,7 +8,7 @@ root=$(dirname "$here")
 build=${BUILD_DIR:-$root/build}
 data=${PCL_ECS_SHARED_DATA_DIR:-$root/../shared/data}
 work=${PEERS_WORKDIR:-/tmp/pcl_ecs_peers}
-cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release > /dev/null
+cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPCL_ECS_BUILD_TOOLS=ON -DPCL_ECS_BUILD_BENCH=ON > /dev/null
 cmake --build "$build" --target bench_peers > /dev/null
 mkdir -p "$here/results"
 "$build/bench/bench_peers" --data "$data" --out "$here/results/peers_sweep.json" --workdir "$work/sweep" \

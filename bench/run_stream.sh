@@ -16,7 +16,7 @@ read -r -a formats <<< "${PCL_ECS_BENCH_FORMATS:-pcd laz}"
 sizes=("$@")
 [ ${#sizes[@]} -eq 0 ] && sizes=(10000000 50000000)
 mkdir -p "$data" bench/results
-bash scripts/build.sh
+bash scripts/build.sh -DPCL_ECS_BUILD_TOOLS=ON -DPCL_ECS_BUILD_BENCH=ON
 bin=build/tools
 out=bench/results/stream.md
 json=bench/results/stream.json

@@ -7,7 +7,7 @@ root=$(dirname "$here")
 build=${BUILD_DIR:-$root/build}
 data=${PCL_ECS_SHARED_DATA_DIR:-$root/../shared/data}
 if [[ ! -x $build/bench/bench_surface ]]; then
-  cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release > /dev/null
+  cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPCL_ECS_BUILD_TOOLS=ON -DPCL_ECS_BUILD_BENCH=ON > /dev/null
   cmake --build "$build" --target bench_surface
 fi
 mkdir -p "$here/results"

@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 out=${1:-bench/results}
 mkdir -p "$out"
 bash scripts/install_deps.sh
-bash scripts/build.sh
+bash scripts/build.sh -DPCL_ECS_BUILD_TOOLS=ON -DPCL_ECS_BUILD_BENCH=ON
 shared=../shared/data
 echo "machine: $(nproc) cores, $(grep MemTotal /proc/meminfo | awk '{print int($2/1048576)" GiB"}')"
 ./build/bench/bench_throughput --mesh "$shared/bunny_mesh.ply" --points 1000000 --keep 0.10 \

@@ -10,8 +10,8 @@ if(NOT PCL_ECS_CARGO)
   message(FATAL_ERROR "PCL_ECS_WITH_LAZ is ON but cargo was not found: install Rust (rustup) or "
                       "configure with -DPCL_ECS_WITH_LAZ=OFF to build without LAZ")
 endif()
-set(PCL_ECS_LAZ_DIR ${CMAKE_SOURCE_DIR}/rust/ecs_laz)
-set(PCL_ECS_LAZ_TARGET_DIR ${CMAKE_BINARY_DIR}/rust)
+set(PCL_ECS_LAZ_DIR ${PROJECT_SOURCE_DIR}/rust/ecs_laz)
+set(PCL_ECS_LAZ_TARGET_DIR ${PROJECT_BINARY_DIR}/rust)
 set(PCL_ECS_LAZ_LIB ${PCL_ECS_LAZ_TARGET_DIR}/release/libecs_laz.a)
 add_custom_command(
   OUTPUT ${PCL_ECS_LAZ_LIB}

@@ -8,7 +8,7 @@ cd "$(dirname "$0")/.."
 bash scripts/install_deps.sh
 
 echo "== Release build and tests"
-bash scripts/build.sh
+bash scripts/build.sh -DPCL_ECS_BUILD_TESTS=ON -DPCL_ECS_BUILD_BENCH=ON -DPCL_ECS_BUILD_TOOLS=ON
 ctest --test-dir build --output-on-failure --parallel 2
 
 echo "== Python tests (pytest)"
@@ -27,7 +27,7 @@ fi
 
 echo "== AddressSanitizer + UndefinedBehaviorSanitizer build and tests"
 BUILD_DIR=build-asan bash scripts/build.sh -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPCL_ECS_SANITIZE=ON \
-  -DPCL_ECS_BUILD_BENCH=OFF
+  -DPCL_ECS_BUILD_TESTS=ON -DPCL_ECS_BUILD_TOOLS=ON -DPCL_ECS_BUILD_BENCH=OFF
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-asan --output-on-failure --parallel 2 -E install_consumer

@@ -3,7 +3,9 @@
 # (find_package(pcl_ecs CONFIG REQUIRED)):
 #  1. the README's example, verbatim: the code blocks after the '<!-- install_consumer: FILE -->'
 #     markers become FILE in an empty project, which must build and simplify data/bunny.pcd;
-#  2. tests/consumer, which also uses pcl_ecs::surface (Cocone).
+#  2. tests/consumer, which loads every component (no COMPONENTS) and uses pcl_ecs::surface (Cocone);
+#  3. tests/consumer_core, a C++-only project that asks for the core component alone;
+# and checks that the library's private headers (src/detail) are not installed.
 set -euo pipefail
 build_dir=$1
 source_dir=$2
@@ -11,6 +13,12 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 cmake --install "$build_dir" --prefix "$work/prefix" > "$work/install.log"
 test -f "$work/prefix/include/pcl_ecs/feature_aware_cover_simplify.h"
+test -f "$work/prefix/include/pcl_ecs/surface/cocone.h"
+for private in simd.h radix_sort.h uninitialised_allocator.h eval/quality_metrics.h; do
+  if find "$work/prefix/include" -path "*$private" | grep -q .; then
+    echo "install_consumer: the private header $private is installed"; exit 1
+  fi
+done
 
 mkdir -p "$work/readme"
 python3 - "$source_dir/README.md" "$work/readme" <<'PY'
@@ -34,3 +42,6 @@ test -s "$work/bunny_small.pcd"
 
 build "$source_dir/tests/consumer" "$work/build"
 "$work/build/consumer"
+
+build "$source_dir/tests/consumer_core" "$work/core-build"
+"$work/core-build/core_consumer"

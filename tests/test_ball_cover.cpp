@@ -1,4 +1,5 @@
 #include <pcl_ecs/stages/ball_cover.h>
+#include <pcl_ecs/stages/global_stats.h>
 #include <pcl_ecs/stages/gap_fill.h>
 #include <pcl_ecs/stages/quadric.h>
 
@@ -7,7 +8,7 @@
 #include <pcl_ecs/stages/paraboloid_curvature.h>
 #include <pcl_ecs/simplify_core.h>
 
-#include "simd.h"  // private: switch the AVX2 loops off and on
+#include "detail/simd.h"  // private: switch the AVX2 loops off and on
 #include "synthetic_shapes.h"
 #include "test_support.h"
 
@@ -34,6 +35,13 @@ struct CoverRun
     pcl_ecs::computeMeanCurvature(*cloud, normals, table, feature, 2, curvature);
     pcl_ecs::coverWithBalls(input(), params, terr, out);
   }
+  /// The means the method takes (the same GlobalStats as the filter and the tiled run).
+  pcl_ecs::GlobalStats stats() const
+  {
+    pcl_ecs::GlobalStats s;
+    s.addNonFeatures(density, weights, curvature, feature);
+    return s;
+  }
   pcl_ecs::CoverInput input() const
   {
     return {*cloud_,
@@ -42,9 +50,9 @@ struct CoverRun
             feature,
             curvature,
             density,
-            pcl_ecs::meanAbsCurvature(curvature, feature),
-            pcl_ecs::meanOverNonFeatures(density, feature),
-            std::sqrt(pcl_ecs::meanOverNonFeatures(weights, feature)),
+            stats().meanAbsCurvature(),
+            stats().meanSpacing(),
+            stats().neighborhoodRadius(),
             pcl_ecs::boundingBoxDiagonal(*cloud_),
             tree};
   }

@@ -1,4 +1,5 @@
 #include <pcl_ecs/stages/feature_measure.h>
+#include <pcl_ecs/stages/global_stats.h>
 
 #include "synthetic_shapes.h"
 #include "test_support.h"
@@ -37,10 +38,12 @@ TEST(FeatureMeasure, ExactAtARidge)
 TEST(FeatureMeasure, ThresholdIsAlphaTimesTheMean)
 {
   const std::vector<double> m = {1.0, 2.0, 3.0, 10.0};
-  EXPECT_DOUBLE_EQ(pcl_ecs::featureThreshold(m, 2.0), 8.0);
+  pcl_ecs::GlobalStats stats;
+  stats.addMeasures(m);
+  EXPECT_DOUBLE_EQ(stats.featureThreshold(2.0), 8.0);
   std::vector<std::uint8_t> f;
   EXPECT_EQ(pcl_ecs::classifyFeatures(m, 8.0, f), 1u);
   EXPECT_EQ(f, (std::vector<std::uint8_t>{0, 0, 0, 1}));
   EXPECT_EQ(pcl_ecs::classifyFeatures(m, 3.0, f), 1u);  // strictly greater
-  EXPECT_EQ(pcl_ecs::featureThreshold({}, 2.0), 0.0);
+  EXPECT_EQ(pcl_ecs::GlobalStats{}.featureThreshold(2.0), 0.0);
 }

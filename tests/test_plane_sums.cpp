@@ -1,7 +1,7 @@
 // The private loops of E(r) (pcl_ecs/src/plane_sums.h): the AVX2 and the portable versions against
 // plain scalar loops, bit for bit.
-#include "plane_sums.h"
-#include "simd.h"
+#include "detail/plane_sums.h"
+#include "detail/simd.h"
 
 #include <pcl_ecs/stages/kernel.h>
 

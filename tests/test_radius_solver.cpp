@@ -2,7 +2,7 @@
 
 #include <pcl_ecs/stages/density_weights.h>
 
-#include "simd.h"  // private: switch the AVX2 loops off and on
+#include "detail/simd.h"  // private: switch the AVX2 loops off and on
 #include "synthetic_shapes.h"
 #include "test_support.h"
 

@@ -1,5 +1,5 @@
 // The private radix sort (pcl_ecs/src/radix_sort.h) against std::stable_sort.
-#include "radix_sort.h"
+#include "detail/radix_sort.h"
 
 #include <gtest/gtest.h>
 

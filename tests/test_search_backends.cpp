@@ -4,7 +4,7 @@
 #include <pcl_ecs/search/nanoflann_search.h>
 #include <pcl_ecs/spatial_order.h>
 
-#include "simd.h"  // private: switch the AVX2 loops off and on
+#include "detail/simd.h"  // private: switch the AVX2 loops off and on
 #include "synthetic_shapes.h"
 
 #include <algorithm>

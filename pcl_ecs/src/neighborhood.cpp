@@ -1,7 +1,7 @@
 #include <pcl_ecs/neighborhood.h>
 
-#include "pair_key.h"
-#include "simd.h"
+#include "detail/pair_key.h"
+#include "detail/simd.h"
 
 #include <algorithm>
 #include <array>
@@ -31,7 +31,7 @@ void storeRow(std::vector<Pair>& row, int k, std::ptrdiff_t i, NeighborhoodTable
   // A back end may return fewer than k + 1 (it should not with n > k); repeat the last.
   while (row.size() < static_cast<std::size_t>(k))
     row.push_back(row.empty() ? std::make_pair(0.f, static_cast<int>(i)) : row.back());
-  int* out_i = table.indices.data() + i * k;
+  int* out_i = table.row(static_cast<std::size_t>(i));
   for (int j = 0; j < k; ++j)
     out_i[j] = row[static_cast<std::size_t>(j)].second;
 }
@@ -502,7 +502,7 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
     w.kth.push_back(std::sqrt(kth));
     prev = i;
     prev_kth = std::sqrt(kth);
-    int* out_i = table.indices.data() + i * k;
+    int* out_i = table.row(static_cast<std::size_t>(i));
     for (std::size_t j = 0; j < ku; ++j)
       out_i[j] = keyIndex(keys[j]);
   }
@@ -519,9 +519,7 @@ Status computeNeighborhoods(const LocalCloud& cloud, const pcl::search::Search<p
   const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(cloud.size());
   if (n <= k)
     return Status::TooFewPoints;
-  table.k = k;
-  // Every row is written below (by the thread that answers its block): no zeroing first.
-  table.indices.resize(static_cast<std::size_t>(n) * k);
+  table.allocate(static_cast<std::size_t>(n), k);
   const std::ptrdiff_t blocks = (n + kBlock - 1) / kBlock;
 
 #pragma omp parallel num_threads(threads)

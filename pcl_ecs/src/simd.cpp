@@ -1,4 +1,4 @@
-#include "simd.h"
+#include "detail/simd.h"
 
 #include <atomic>
 

@@ -1,7 +1,8 @@
 #include <pcl_ecs/spatial_order.h>
 #include <pcl_ecs/types.h>
 
-#include "radix_sort.h"
+#include "detail/radix_sort.h"
+#include "detail/uninitialised_allocator.h"
 
 #include <algorithm>
 #include <limits>

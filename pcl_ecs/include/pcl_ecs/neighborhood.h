@@ -4,6 +4,7 @@
 #include <pcl_ecs/types.h>
 
 #include <cstddef>
+#include <memory>
 #include <vector>
 
 #include <pcl/search/search.h>
@@ -17,11 +18,22 @@ namespace pcl_ecs
 struct NeighborhoodTable
 {
   int k = 0;
-  /// size() * k entries, row i = neighbours of point i (filled row by row by the parallel search)
-  std::vector<int, UninitialisedAllocator<int>> indices;
 
-  std::size_t size() const { return k > 0 ? indices.size() / static_cast<std::size_t>(k) : 0; }
-  const int* neighbors(std::size_t i) const { return indices.data() + i * k; }
+  /// Make room for n rows of k neighbours, left unwritten: every row is then written once, by the
+  /// thread that answers it (no zeroing pass by one thread before).
+  void allocate(std::size_t n, int neighbours)
+  {
+    k = neighbours;
+    rows_ = n;
+    entries_.reset(n > 0 && neighbours > 0 ? new int[n * static_cast<std::size_t>(neighbours)] : nullptr);
+  }
+  std::size_t size() const { return rows_; }
+  const int* neighbors(std::size_t i) const { return entries_.get() + i * static_cast<std::size_t>(k); }
+  int* row(std::size_t i) { return entries_.get() + i * static_cast<std::size_t>(k); }
+
+private:
+  std::size_t rows_ = 0;
+  std::unique_ptr<int[]> entries_;  ///< rows_ * k entries, row i = neighbours of point i
 };
 
 /** \brief The squared distance between points a and b of the cloud, in float, computed as the

@@ -42,6 +42,13 @@ struct CoreOutput
 Status simplifyLocal(const LocalCloud::ConstPtr& cloud, const NormalList* input_normals,
                      const Parameters& params, const ProgressCallback& progress, CoreOutput& out);
 
+/** \brief `n` turned towards `viewpoint` as seen from `at` (one frame for both), as PCL's
+ * NormalEstimation orients normals: flipped when (viewpoint − at) · n < 0. */
+inline Eigen::Vector3f orientTowards(const Eigen::Vector3f& n, const Eigen::Vector3d& at, const Eigen::Vector3d& viewpoint)
+{
+  return (viewpoint - at).dot(n.cast<double>()) < 0.0 ? Eigen::Vector3f(-n) : n;
+}
+
 /** \brief Diagonal of the axis-aligned bounding box of `cloud`. */
 double boundingBoxDiagonal(const LocalCloud& cloud);
 

@@ -1,7 +1,7 @@
 #include <pcl_ecs/search/box_tree_search.h>
 
-#include "../pair_key.h"
-#include "../simd.h"
+#include "../detail/pair_key.h"
+#include "../detail/simd.h"
 
 #include <pcl/common/point_tests.h>
 

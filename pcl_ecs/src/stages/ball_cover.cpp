@@ -6,8 +6,9 @@
 #include <pcl_ecs/stages/radius_solver.h>
 #include <pcl_ecs/stages/seeded_order.h>
 
-#include "../radix_sort.h"
-#include "../simd.h"
+#include "../detail/radix_sort.h"
+#include "../detail/simd.h"
+#include "../detail/uninitialised_allocator.h"
 
 #include <algorithm>
 #include <cmath>

@@ -25,16 +25,6 @@ void computeFeatureMeasure(const LocalCloud& cloud, const NormalList& normals,
   }
 }
 
-double featureThreshold(const std::vector<double>& measure, double alpha)
-{
-  if (measure.empty())
-    return 0.0;
-  double sum = 0.0;
-  for (double m : measure)
-    sum += m;
-  return alpha * sum / static_cast<double>(measure.size());
-}
-
 std::size_t classifyFeatures(const std::vector<double>& measure, double delta,
                              std::vector<std::uint8_t>& is_feature)
 {

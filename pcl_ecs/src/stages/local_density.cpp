@@ -51,10 +51,4 @@ void computeLocalDensity(const LocalCloud& cloud, const NeighborhoodTable& table
   }
 }
 
-double meanOverNonFeatures(const std::vector<double>& values,
-                           const std::vector<std::uint8_t>& is_feature)
-{
-  return meanOverNonFeaturesOf(is_feature, [&](std::size_t i) { return values[i]; });
-}
-
 }  // namespace pcl_ecs

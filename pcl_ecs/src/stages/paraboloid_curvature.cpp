@@ -3,7 +3,7 @@
 #include <pcl_ecs/stages/local_density.h>
 #include <pcl_ecs/stages/tangent_frame.h>
 
-#include "../simd.h"
+#include "../detail/simd.h"
 
 #include <algorithm>
 #include <cmath>
@@ -559,12 +559,6 @@ void computeMeanCurvature(const LocalCloud& cloud, const NormalList& normals,
     }
   }
   (void)wide;
-}
-
-double meanAbsCurvature(const std::vector<double>& curvature,
-                        const std::vector<std::uint8_t>& is_feature)
-{
-  return meanOverNonFeaturesOf(is_feature, [&](std::size_t i) { return std::abs(curvature[i]); });
 }
 
 }  // namespace pcl_ecs

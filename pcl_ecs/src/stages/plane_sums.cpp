@@ -1,8 +1,8 @@
-#include "../plane_sums.h"
+#include "../detail/plane_sums.h"
 
 #include <pcl_ecs/stages/kernel.h>
 
-#include "../simd.h"
+#include "../detail/simd.h"
 
 #include <algorithm>
 

@@ -2,8 +2,8 @@
 
 #include <pcl_ecs/stages/kernel.h>
 
-#include "../plane_sums.h"
-#include "../simd.h"
+#include "../detail/plane_sums.h"
+#include "../detail/simd.h"
 
 #ifdef PCL_ECS_HAVE_AVX2_PATH
 #include <immintrin.h>

@@ -213,23 +213,23 @@ std::vector<double> tileTotals(const fs::path& total, int tiles, std::size_t n,
 void Runner::globalsAfterA()
 {
   const int tiles = static_cast<int>(plan_.tree.tiles.size());
-  const auto v = tileTotals(paths_.totalA(), tiles, 4, [&](int t) { return paths_.sumA(t); });
-  const double sum_measure = v[0], count = v[1], incomplete = v[2], merged = v[3];
-  summary_.merged_points = static_cast<std::uint64_t>(merged);
-  delta_ = params_.feature_factor * sum_measure / count;
+  const TileSumsA a = TileSumsA::from(
+      tileTotals(paths_.totalA(), tiles, TileSumsA::kValues, [&](int t) { return paths_.sumA(t); }));
+  summary_.merged_points = static_cast<std::uint64_t>(a.merged);
+  delta_ = a.stats.featureThreshold(params_.feature_factor);
   summary_.feature_threshold = delta_ / plan_.scale();
-  summary_.incomplete_neighbourhoods = static_cast<std::uint64_t>(incomplete);
+  summary_.incomplete_neighbourhoods = static_cast<std::uint64_t>(a.incomplete);
 }
 
 int Runner::globalsAfterB(bool warn)
 {
   const int tiles = static_cast<int>(plan_.tree.tiles.size());
-  const auto sb = tileTotals(paths_.totalB(), tiles, 6, [&](int t) { return paths_.sumB(t); });
-  summary_.search_fallback_tiles = static_cast<std::uint64_t>(sb[5]);
-  const double nonfeature = std::max(1.0, sb[3]);
-  mean_spacing_ = sb[0] / nonfeature;
-  neighborhood_radius_ = sb[1] / nonfeature;
-  mean_abs_h_ = sb[2] / nonfeature;
+  const TileSumsB b = TileSumsB::from(
+      tileTotals(paths_.totalB(), tiles, TileSumsB::kValues, [&](int t) { return paths_.sumB(t); }));
+  summary_.search_fallback_tiles = static_cast<std::uint64_t>(b.searched);
+  mean_spacing_ = b.stats.meanSpacing();
+  neighborhood_radius_ = b.stats.neighborhoodRadius();
+  mean_abs_h_ = b.stats.meanAbsCurvature();
   summary_.mean_spacing = mean_spacing_ / plan_.scale();
   summary_.neighborhood_radius = neighborhood_radius_ / plan_.scale();
   summary_.mean_abs_curvature = mean_abs_h_ * plan_.scale();

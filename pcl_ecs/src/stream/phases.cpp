@@ -64,8 +64,8 @@ void Runner::phaseA(int t)
   // Sums over this tile's own points (each point counted once in all): Σ measure, count,
   // neighbourhoods that reach past the halo.
   const Tile& tile = plan_.tree.tiles[static_cast<std::size_t>(t)];
-  std::vector<double> sums(4, 0.0);
-  sums[3] = static_cast<double>(d.merged_core);
+  TileSumsA sums;
+  sums.merged = static_cast<double>(d.merged_core);
   for (std::size_t i = 0; i < n; ++i)
   {
     std::uint8_t* a = attr.data() + i * kAttrBytes;
@@ -75,15 +75,14 @@ void Runner::phaseA(int t)
     std::memcpy(a + 28, &curvature[i], 8);
     if (!d.is_core[i])
       continue;
-    sums[0] += measure[i];
-    sums[1] += 1.0;
+    sums.stats.addMeasure(measure[i]);
     const Eigen::Vector3d p = plan_.toWorld((*d.cloud)[i].getVector3fMap().cast<double>());
     const double u = p[plan_.axis_u], v = p[plan_.axis_v];
     const double room = std::min({u - (tile.lo[0] - plan_.halo), (tile.hi[0] + plan_.halo) - u,
                                   v - (tile.lo[1] - plan_.halo), (tile.hi[1] + plan_.halo) - v});
     if (std::sqrt(static_cast<double>(sqrDistance(*d.cloud, i, static_cast<std::size_t>(table.neighbors(i)[k - 1])))) >
         room * plan_.scale())
-      sums[2] += 1.0;
+      sums.incomplete += 1.0;
   }
   // Eq. 5 is the distance to the nearest non-feature neighbour, and which neighbours are features
   // depends on δ, known only when every tile has passed this phase. Keep, for each own point, the
@@ -141,9 +140,9 @@ void Runner::phaseA(int t)
     writeVectorAtomic(paths_.order(t), saved);
   }
   writeVectorAtomic(paths_.attr(t), attr);
-  writeVectorAtomic(paths_.sumA(t), sums);  // the marker: written last
+  writeVectorAtomic(paths_.sumA(t), sums.values());  // the marker: written last
   std::lock_guard<std::mutex> lock(measure_done_mutex_);
-  measure_done_ += sums[0];
+  measure_done_ += sums.stats.measure_sum;
 }
 
 void Runner::phaseB(int t)
@@ -152,9 +151,7 @@ void Runner::phaseB(int t)
   const AttrView attr{attr_bytes};
   const std::size_t n = attr.size();
   std::vector<double> density(n, 0.0);
-  // Σ dens, Σ sqrt(a), Σ |H|, non-feature count, feature count (own points), 1 if the tile was
-  // loaded for a search
-  std::vector<double> sums(6, 0.0);
+  TileSumsB sums;  // over the tile's own points
   {
     // From the neighbour lists of phase A; a point whose K neighbours are all features needs a
     // search over the non-feature points: then the tile is loaded (below).
@@ -193,20 +190,15 @@ void Runner::phaseB(int t)
       if (!found)
         complete = false;
       else if (feature)
-        sums[4] += 1.0;
+        sums.features += 1.0;
       else
-      {
-        sums[0] += density[i];
-        sums[1] += std::sqrt(attr.value(i, 0));
-        sums[2] += std::abs(attr.value(i, 2));
-        sums[3] += 1.0;
-      }
+        sums.stats.addNonFeature(density[i], attr.value(i, 0), attr.value(i, 2));
     }
     if (complete)
     {
       fs::create_directories(paths_.root / "b");
       writeVectorAtomic(paths_.dens(t), density);
-      writeVectorAtomic(paths_.sumB(t), sums);
+      writeVectorAtomic(paths_.sumB(t), sums.values());
       dropScratch({paths_.frontier(t)});
       return;
     }
@@ -218,25 +210,20 @@ void Runner::phaseB(int t)
   NeighborhoodTable table;
   computeNeighborhoods(*d.cloud, tree, params_.k_neighbors, tile_threads_, table);
   computeLocalDensity(*d.cloud, table, is_feature, tree, tile_threads_, density);
-  std::fill(sums.begin(), sums.end(), 0.0);
-  sums[5] = 1.0;
+  sums = TileSumsB{};
+  sums.searched = 1.0;
   for (std::size_t i = 0; i < n; ++i)
   {
     if (!d.is_core[i])
       continue;
     if (is_feature[i])
-    {
-      sums[4] += 1.0;
-      continue;
-    }
-    sums[0] += density[i];
-    sums[1] += std::sqrt(attr.value(i, 0));
-    sums[2] += std::abs(attr.value(i, 2));
-    sums[3] += 1.0;
+      sums.features += 1.0;
+    else
+      sums.stats.addNonFeature(density[i], attr.value(i, 0), attr.value(i, 2));
   }
   fs::create_directories(paths_.root / "b");
   writeVectorAtomic(paths_.dens(t), density);
-  writeVectorAtomic(paths_.sumB(t), sums);
+  writeVectorAtomic(paths_.sumB(t), sums.values());
   dropScratch({paths_.frontier(t)});
 }
 
@@ -407,8 +394,7 @@ void Runner::setRecordNormal(std::uint8_t* rec, Eigen::Vector3f nrm, const Eigen
   const std::array<int, 3>& f = normal_fields_;
   if (f[0] < 0 || f[1] < 0 || f[2] < 0)
     return;
-  if ((viewpoint_local_ - at).dot(nrm.cast<double>()) < 0.0)
-    nrm = -nrm;
+  nrm = orientTowards(nrm, at, viewpoint_local_);
   for (int a = 0; a < 3; ++a)
   {
     const auto& field = header_.fields[static_cast<std::size_t>(f[a])];

@@ -16,12 +16,13 @@
 #include <pcl_ecs/stages/density_weights.h>
 #include <pcl_ecs/stages/feature_measure.h>
 #include <pcl_ecs/stages/gap_fill.h>
+#include <pcl_ecs/stages/global_stats.h>
 #include <pcl_ecs/stages/local_density.h>
 #include <pcl_ecs/stages/normals.h>
 #include <pcl_ecs/stages/paraboloid_curvature.h>
 #include <pcl_ecs/stages/seeded_order.h>
 
-#include "../radix_sort.h"
+#include "../detail/radix_sort.h"
 
 #include <algorithm>
 #include <atomic>
@@ -56,6 +57,49 @@ namespace detail
 namespace fs = std::filesystem;
 
 using Clock = std::chrono::steady_clock;
+
+/// What step A adds up over one tile's own points (the file sumA: these four values in order).
+struct TileSumsA
+{
+  GlobalStats stats;      ///< Σ measure (eq. 3) and the point count
+  double incomplete = 0;  ///< neighbourhoods that reach past the halo
+  double merged = 0;      ///< coincident points merged into another
+  static constexpr std::size_t kValues = 4;
+  std::vector<double> values() const { return {stats.measure_sum, stats.points, incomplete, merged}; }
+  static TileSumsA from(const std::vector<double>& v)
+  {
+    TileSumsA a;
+    a.stats.measure_sum = v.at(0);
+    a.stats.points = v.at(1);
+    a.incomplete = v.at(2);
+    a.merged = v.at(3);
+    return a;
+  }
+};
+
+/// What step B adds up over one tile's own points (the file sumB: these six values in order).
+struct TileSumsB
+{
+  GlobalStats stats;     ///< Σ spacing (eq. 5), Σ sqrt(a) (eq. 1), Σ |H| (eq. 11), non-feature count
+  double features = 0;   ///< feature points
+  double searched = 0;   ///< 1 when the tile was loaded for a search over its non-feature points
+  static constexpr std::size_t kValues = 6;
+  std::vector<double> values() const
+  {
+    return {stats.spacing_sum, stats.radius_sum, stats.abs_curvature_sum, stats.nonfeature_points, features, searched};
+  }
+  static TileSumsB from(const std::vector<double>& v)
+  {
+    TileSumsB b;
+    b.stats.spacing_sum = v.at(0);
+    b.stats.radius_sum = v.at(1);
+    b.stats.abs_curvature_sum = v.at(2);
+    b.stats.nonfeature_points = v.at(3);
+    b.features = v.at(4);
+    b.searched = v.at(5);
+    return b;
+  }
+};
 constexpr const char* kScratchMarker = "pcl_ecs-scratch";
 constexpr int kFormatVersion = 2;
 constexpr std::size_t kChunk = 1 << 16;          // points per read

@@ -6,7 +6,7 @@
 
 #include <pcl_ecs/surface/cocone.h>
 
-#include "../radix_sort.h"
+#include "../detail/radix_sort.h"
 
 #include <Eigen/Geometry>
 

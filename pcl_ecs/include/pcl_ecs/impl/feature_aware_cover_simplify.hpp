@@ -48,6 +48,160 @@ Eigen::Vector3f getNormal(const PointT& p)
     return Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN());
   }
 }
+/// The finite points of the indices in the method's local frame (step 1 of applyFilter).
+template <typename PointT>
+struct LocalFrame
+{
+  std::vector<int> used;                   ///< local index -> input index (Hilbert order)
+  std::vector<std::pair<int, int>> merged; ///< (merged input index, the input index standing for it)
+  std::size_t finite = 0;                  ///< finite points before the merge
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  double scale = 1.0;                      ///< local = (world − origin) × scale
+  LocalCloud::Ptr local;
+  NormalList input_normals;                ///< with use_input_normals
+};
+
+/// Step 1: the finite points of `indices`, coincident ones merged, in Hilbert order, moved to a
+/// local frame (double origin) for float precision. Returns why the cloud cannot be simplified
+/// (empty when it can).
+template <typename PointT>
+std::string makeLocalFrame(const pcl::PointCloud<PointT>& input, const pcl::Indices& indices,
+                           const Parameters& params, LocalFrame<PointT>& f)
+{
+  f.used.reserve(indices.size());
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  for (const auto idx : indices)
+  {
+    const PointT& p = input[idx];
+    // Checked whatever is_dense says: a cloud that claims to be dense may not be.
+    if (!pcl::isXYZFinite(p))
+      continue;
+    if (params.use_input_normals && !getNormal(p).allFinite())
+      continue;
+    f.used.push_back(static_cast<int>(idx));
+    const Eigen::Vector3d q(p.x, p.y, p.z);
+    lo = lo.cwiseMin(q);
+    hi = hi.cwiseMax(q);
+  }
+  f.finite = f.used.size();
+  if (f.used.empty())
+    return "the input has no finite points";
+  if (lo == hi && f.used.size() > 1)
+    return "all points are identical: there is no surface to simplify";
+  // Store the points in Hilbert order: every neighbour query of every stage is then local.
+  const auto position = [&](int idx) {
+    const PointT& p = input[idx];
+    return Eigen::Vector3d(p.x, p.y, p.z);
+  };
+  // Coincident points (merged scans, re-exports, sensors' missing returns at one spot), exactly
+  // or to float rounding, would give zero distances to eq. 1's weights and eq. 5's density: one
+  // point of each group stands for all of it; the others map to its output point.
+  f.merged = sortAndMergeCoincident(f.used, position, lo, hi, resolveThreads(params.threads));
+  if (!f.merged.empty() && f.used.size() <= static_cast<std::size_t>(params.k_neighbors))
+    return "only " + std::to_string(f.used.size()) + " distinct finite points (" + std::to_string(f.merged.size()) +
+           " more at the same places); the neighbourhood size K = " + std::to_string(params.k_neighbors) +
+           " needs at least " + std::to_string(params.k_neighbors + 1);
+  f.origin = 0.5 * (lo + hi);
+  // Extreme extents (micrometre parts in metres, planets in millimetres) are brought into
+  // float's comfortable range by a power of four, which scales every length exactly; the
+  // method is scale-free, and results are given back in the input's units.
+  const double extent = (hi - lo).maxCoeff();
+  if (!(extent > 1e-30))
+    return "the cloud's extent (" + std::to_string(extent) + ") is too small for float precision";
+  f.scale = frameScale(extent);
+  f.local = std::make_shared<LocalCloud>();
+  f.local->resize(f.used.size());
+  if (params.use_input_normals)
+    f.input_normals.resize(f.used.size());
+  for (std::size_t i = 0; i < f.used.size(); ++i)
+  {
+    const PointT& p = input[f.used[i]];
+    (*f.local)[i].getVector3fMap() = ((Eigen::Vector3d(p.x, p.y, p.z) - f.origin) * f.scale).template cast<float>();
+    if (params.use_input_normals)
+      f.input_normals[i] = getNormal(p);
+  }
+  return {};
+}
+
+/// Step 3: the output cloud (features in input order, then one representative per ball) and the
+/// result's per-point and per-ball records, in the input's frame.
+template <typename PointT>
+void assembleOutput(const pcl::PointCloud<PointT>& input, const LocalFrame<PointT>& f, const CoreOutput& core,
+                    bool use_input_normals, pcl::PointCloud<PointT>& output, Result& result)
+{
+  const LocalCloud& local = *f.local;
+  const std::vector<int>& used = f.used;
+  const std::size_t n_features = core.summary.feature_points;
+  const std::size_t n_balls = core.cover.balls.size();
+  output.resize(n_features + n_balls);
+  result.labels.reserve(n_features + n_balls);
+  result.source_index.reserve(n_features + n_balls);
+  result.ball_of_output.reserve(n_features + n_balls);
+  result.input_to_output.assign(input.size(), -1);
+  std::vector<std::int64_t> local_to_output(used.size(), -1);
+  std::size_t o = 0;
+  // Estimated normals are oriented towards the sensor origin, as PCL's NormalEstimation does.
+  const Eigen::Vector3d viewpoint = (input.sensor_origin_.template head<3>().template cast<double>() - f.origin) * f.scale;
+  auto oriented = [&](const Eigen::Vector3f& n, const Eigen::Vector3d& at) -> Eigen::Vector3f {
+    return use_input_normals ? n : orientTowards(n, at, viewpoint);
+  };
+  std::vector<std::size_t> feature_locals;
+  feature_locals.reserve(n_features);
+  for (std::size_t i = 0; i < used.size(); ++i)
+    if (core.is_feature[i])
+      feature_locals.push_back(i);
+  std::sort(feature_locals.begin(), feature_locals.end(),
+            [&](std::size_t a, std::size_t b) { return used[a] < used[b]; });  // input order
+  for (const std::size_t i : feature_locals)
+  {
+    output[o] = input[used[i]];
+    setNormal(output[o], oriented(core.normals[i], local[i].getVector3fMap().template cast<double>()));
+    result.labels.push_back(PointLabel::Feature);
+    result.source_index.push_back(used[i]);
+    result.ball_of_output.push_back(-1);
+    local_to_output[i] = static_cast<std::int64_t>(o);
+    ++o;
+  }
+  result.balls.resize(n_balls);
+  for (std::size_t b = 0; b < n_balls; ++b)
+  {
+    const CoverBall& cb = core.cover.balls[b];
+    PointT& p = output[o];
+    p = input[used[static_cast<std::size_t>(cb.attribute_source)]];
+    const Eigen::Vector3d world = cb.representative / f.scale + f.origin;
+    p.x = static_cast<float>(world.x());
+    p.y = static_cast<float>(world.y());
+    p.z = static_cast<float>(world.z());
+    setNormal(p, oriented(cb.normal, cb.representative));
+    Ball& ball = result.balls[b];
+    ball.centre_index = used[static_cast<std::size_t>(cb.centre)];
+    ball.centre = local[cb.centre].getVector3fMap().template cast<double>() / f.scale + f.origin;
+    ball.representative = world;
+    ball.radius = cb.radius / f.scale;
+    ball.tolerance = cb.tolerance;
+    ball.error = cb.error;
+    ball.replaced = cb.replaced;
+    ball.used_centre = cb.used_centre;
+    ball.output_index = o;
+    result.labels.push_back(PointLabel::Representative);
+    result.source_index.push_back(used[static_cast<std::size_t>(cb.attribute_source)]);
+    result.ball_of_output.push_back(static_cast<std::int64_t>(b));
+    ++o;
+  }
+  for (std::size_t i = 0; i < used.size(); ++i)
+  {
+    const std::int64_t out_idx =
+        core.is_feature[i] ? local_to_output[i]
+                           : static_cast<std::int64_t>(result.balls[static_cast<std::size_t>(core.cover.owner[i])].output_index);
+    result.input_to_output[static_cast<std::size_t>(used[i])] = out_idx;
+  }
+  for (const auto& [gone, kept] : f.merged)
+    result.input_to_output[static_cast<std::size_t>(gone)] = result.input_to_output[static_cast<std::size_t>(kept)];
+  output.width = static_cast<std::uint32_t>(output.size());
+  output.height = 1;
+  output.is_dense = true;
+}
 }  // namespace detail
 
 template <typename PointT>
@@ -90,154 +244,31 @@ void FeatureAwareCoverSimplify<PointT>::applyFilter(PointCloud& output)
 
   try
   {
-    // 1. Finite points of the indices, in a local frame (double origin) for float precision.
+    // 1. Finite points of the indices, in a local frame.
     const auto t_prep = Clock::now();
-    std::vector<int> used;  // local index -> input index
-    used.reserve(indices_->size());
-    Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-    Eigen::Vector3d hi = -lo;
-    for (const auto idx : *indices_)
-    {
-      const PointT& p = (*input_)[idx];
-      // Checked whatever is_dense says: a cloud that claims to be dense may not be.
-      if (!pcl::isXYZFinite(p))
-        continue;
-      if (params_.use_input_normals && !detail::getNormal(p).allFinite())
-        continue;
-      used.push_back(static_cast<int>(idx));
-      const Eigen::Vector3d q(p.x, p.y, p.z);
-      lo = lo.cwiseMin(q);
-      hi = hi.cwiseMax(q);
-    }
+    detail::LocalFrame<PointT> frame;
+    why = detail::makeLocalFrame(*input_, *indices_, params_, frame);
     result_.summary.input_points = indices_->size();
-    result_.summary.finite_points = used.size();
-    if (used.empty())
-      return fail("the input has no finite points");
-    if (lo == hi && used.size() > 1)
-      return fail("all points are identical: there is no surface to simplify");
-    // Store the points in Hilbert order: every neighbour query of every stage is then local.
-    const auto position = [&](int idx) {
-      const PointT& p = (*input_)[idx];
-      return Eigen::Vector3d(p.x, p.y, p.z);
-    };
-    // Coincident points (merged scans, re-exports, sensors' missing returns at one spot), exactly
-    // or to float rounding, would give zero distances to eq. 1's weights and eq. 5's density: one
-    // point of each group stands for all of it; the others map to its output point.
-    const std::size_t before_merge = used.size();
-    const std::vector<std::pair<int, int>> merged =
-        sortAndMergeCoincident(used, position, lo, hi, resolveThreads(params_.threads));
-    if (!merged.empty() && used.size() <= static_cast<std::size_t>(params_.k_neighbors))
-      return fail("only " + std::to_string(used.size()) + " distinct finite points (" + std::to_string(merged.size()) +
-                  " more at the same places); the neighbourhood size K = " + std::to_string(params_.k_neighbors) +
-                  " needs at least " + std::to_string(params_.k_neighbors + 1));
-    const Eigen::Vector3d origin = 0.5 * (lo + hi);
-    // Extreme extents (micrometre parts in metres, planets in millimetres) are brought into
-    // float's comfortable range by a power of four, which scales every length exactly; the
-    // method is scale-free, and results are given back in the input's units.
-    const double extent = (hi - lo).maxCoeff();
-    if (!(extent > 1e-30))
-      return fail("the cloud's extent (" + std::to_string(extent) + ") is too small for float precision");
-    const double scale = frameScale(extent);
-    auto local = std::make_shared<LocalCloud>();
-    local->resize(used.size());
-    NormalList input_normals;
-    if (params_.use_input_normals)
-      input_normals.resize(used.size());
-    for (std::size_t i = 0; i < used.size(); ++i)
-    {
-      const PointT& p = (*input_)[used[i]];
-      (*local)[i].getVector3fMap() = ((Eigen::Vector3d(p.x, p.y, p.z) - origin) * scale).template cast<float>();
-      if (params_.use_input_normals)
-        input_normals[i] = detail::getNormal(p);
-    }
+    result_.summary.finite_points = frame.finite;
+    if (!why.empty())
+      return fail(why);
     const double t_prep_s = std::chrono::duration<double>(Clock::now() - t_prep).count();
 
     // 2. The method.
     CoreOutput core;
-    const Status status = simplifyLocal(local, params_.use_input_normals ? &input_normals : nullptr,
+    const Status status = simplifyLocal(frame.local, params_.use_input_normals ? &frame.input_normals : nullptr,
                                         params_, progress_, core);
     if (status != Status::Ok)
       return fail(core.error);
 
-    // 3. Output: features (input order), then one representative per ball.
+    // 3. The output.
     const auto t_out = Clock::now();
-    const std::size_t n_features = core.summary.feature_points;
-    const std::size_t n_balls = core.cover.balls.size();
-    output.resize(n_features + n_balls);
-    result_.labels.reserve(n_features + n_balls);
-    result_.source_index.reserve(n_features + n_balls);
-    result_.ball_of_output.reserve(n_features + n_balls);
-    result_.input_to_output.assign(input_->size(), -1);
-    std::vector<std::int64_t> local_to_output(used.size(), -1);
-    std::size_t o = 0;
-    // Estimated normals are oriented towards the sensor origin, as PCL's NormalEstimation does.
-    const Eigen::Vector3d viewpoint = (input_->sensor_origin_.template head<3>().template cast<double>() - origin) * scale;
-    auto oriented = [&](const Eigen::Vector3f& n, const Eigen::Vector3d& at) -> Eigen::Vector3f {
-      if (params_.use_input_normals)
-        return n;
-      return (viewpoint - at).dot(n.template cast<double>()) < 0.0 ? Eigen::Vector3f(-n) : n;
-    };
-    std::vector<std::size_t> feature_locals;
-    feature_locals.reserve(n_features);
-    for (std::size_t i = 0; i < used.size(); ++i)
-      if (core.is_feature[i])
-        feature_locals.push_back(i);
-    std::sort(feature_locals.begin(), feature_locals.end(),
-              [&](std::size_t a, std::size_t b) { return used[a] < used[b]; });  // input order
-    for (const std::size_t i : feature_locals)
-    {
-      output[o] = (*input_)[used[i]];
-      detail::setNormal(output[o], oriented(core.normals[i], (*local)[i].getVector3fMap().template cast<double>()));
-      result_.labels.push_back(PointLabel::Feature);
-      result_.source_index.push_back(used[i]);
-      result_.ball_of_output.push_back(-1);
-      local_to_output[i] = static_cast<std::int64_t>(o);
-      ++o;
-    }
-    result_.balls.resize(n_balls);
-    for (std::size_t b = 0; b < n_balls; ++b)
-    {
-      const CoverBall& cb = core.cover.balls[b];
-      PointT& p = output[o];
-      p = (*input_)[used[static_cast<std::size_t>(cb.attribute_source)]];
-      const Eigen::Vector3d world = cb.representative / scale + origin;
-      p.x = static_cast<float>(world.x());
-      p.y = static_cast<float>(world.y());
-      p.z = static_cast<float>(world.z());
-      detail::setNormal(p, oriented(cb.normal, cb.representative));
-      Ball& ball = result_.balls[b];
-      ball.centre_index = used[static_cast<std::size_t>(cb.centre)];
-      ball.centre = (*local)[cb.centre].getVector3fMap().template cast<double>() / scale + origin;
-      ball.representative = world;
-      ball.radius = cb.radius / scale;
-      ball.tolerance = cb.tolerance;
-      ball.error = cb.error;
-      ball.replaced = cb.replaced;
-      ball.used_centre = cb.used_centre;
-      ball.output_index = o;
-      result_.labels.push_back(PointLabel::Representative);
-      result_.source_index.push_back(used[static_cast<std::size_t>(cb.attribute_source)]);
-      result_.ball_of_output.push_back(static_cast<std::int64_t>(b));
-      ++o;
-    }
-    for (std::size_t i = 0; i < used.size(); ++i)
-    {
-      const std::int64_t out_idx =
-          core.is_feature[i] ? local_to_output[i]
-                             : static_cast<std::int64_t>(result_.balls[static_cast<std::size_t>(core.cover.owner[i])].output_index);
-      result_.input_to_output[static_cast<std::size_t>(used[i])] = out_idx;
-    }
-    for (const auto& [gone, kept] : merged)
-      result_.input_to_output[static_cast<std::size_t>(gone)] = result_.input_to_output[static_cast<std::size_t>(kept)];
-    output.width = static_cast<std::uint32_t>(output.size());
-    output.height = 1;
-    output.is_dense = true;
-
+    detail::assembleOutput(*input_, frame, core, params_.use_input_normals, output, result_);
     result_.summary = core.summary;
-    unscaleSummary(result_.summary, scale);
+    unscaleSummary(result_.summary, frame.scale);
     result_.summary.input_points = indices_->size();
-    result_.summary.finite_points = before_merge;
-    result_.summary.merged_points = merged.size();
+    result_.summary.finite_points = frame.finite;
+    result_.summary.merged_points = frame.merged.size();
     result_.summary.timings.preparation = t_prep_s;
     result_.summary.timings.output = std::chrono::duration<double>(Clock::now() - t_out).count();
     result_.summary.timings.total = std::chrono::duration<double>(Clock::now() - t_start).count();

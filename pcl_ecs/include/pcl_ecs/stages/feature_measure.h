@@ -17,9 +17,6 @@ void computeFeatureMeasure(const LocalCloud& cloud, const NormalList& normals,
                            const NeighborhoodTable& table, int threads,
                            std::vector<double>& measure);
 
-/** \brief Eq. 4: δ = α · mean(measure). The mean is summed in index order (reproducible). */
-double featureThreshold(const std::vector<double>& measure, double alpha);
-
 /** \brief is_feature[i] = measure[i] > delta. Returns the number of feature points. */
 std::size_t classifyFeatures(const std::vector<double>& measure, double delta,
                              std::vector<std::uint8_t>& is_feature);

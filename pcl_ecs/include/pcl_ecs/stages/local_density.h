@@ -23,24 +23,4 @@ void computeLocalDensity(const LocalCloud& cloud, const NeighborhoodTable& table
                          const pcl::search::Search<pcl::PointXYZ>& search,
                          int threads, std::vector<double>& dens);
 
-/** \brief The mean of value(i) over the non-feature points i (0 when there are none), summed in
- * index order. */
-template <class Value>
-double meanOverNonFeaturesOf(const std::vector<std::uint8_t>& is_feature, Value value)
-{
-  double sum = 0.0;
-  std::size_t count = 0;
-  for (std::size_t i = 0; i < is_feature.size(); ++i)
-    if (!is_feature[i])
-    {
-      sum += value(i);
-      ++count;
-    }
-  return count ? sum / static_cast<double>(count) : 0.0;
-}
-
-/** \brief Eq. 6: the mean of dens over the non-feature points (0 when there are none). */
-double meanOverNonFeatures(const std::vector<double>& values,
-                           const std::vector<std::uint8_t>& is_feature);
-
 }  // namespace pcl_ecs

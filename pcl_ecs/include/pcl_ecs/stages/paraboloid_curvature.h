@@ -39,9 +39,4 @@ void computeMeanCurvature(const LocalCloud& cloud, const NormalList& normals,
                           std::vector<double>& curvature,
                           ParaboloidFit fit = ParaboloidFit::Tilted);
 
-/** \brief Eq. 12, on |H| (the sign is that of an arbitrary normal): mean of |H| over the
- * non-feature points. */
-double meanAbsCurvature(const std::vector<double>& curvature,
-                        const std::vector<std::uint8_t>& is_feature);
-
 }  // namespace pcl_ecs

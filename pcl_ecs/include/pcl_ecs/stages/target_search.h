@@ -1,0 +1,72 @@
+// target_search.h — "give me N points": the T_err (and, when T_err alone cannot, the radius cap and
+// the gap bound) whose cover gives N output points within 1%, or the closest size reachable.
+//
+// The search knows nothing of points: it asks a count function for the size of the cover at a
+// (T_err, cap, gap) and tells it which trial is the best so far. The method's driver runs the
+// cover (ball_cover.h) and the gap bound (gap_fill.h) behind that function and keeps the best
+// output; a test gives it a synthetic count.
+//
+// The search, in order:
+//  1. at the starting cap and gap bound: bracket T_err by ×4 steps from the user's T_err (down by
+//     the step two trials' power law gives, when too few), then Brent's method on
+//     log((count − floor) / (wanted − floor)) against log T inside the bracket;
+//  2. while the size is out of reach (the cap or the gap points, not T_err, set the count): widen
+//     the gap bound (×1.1, several steps at once when two searches show how the gap points fall)
+//     when the gap points alone exceed the excess, else the cap (×1.5, up to the plain cap), and
+//     search again from the best T_err so far.
+// The result is a function of the counts alone, so it is deterministic when the count is.
+#pragma once
+
+#include <cstddef>
+
+namespace pcl_ecs
+{
+
+/** \brief What one cover gave at a (T_err, cap, gap) trial. */
+struct TargetTrialCounts
+{
+  std::size_t balls = 0;      ///< balls of the cover after the gap bound (gap points included)
+  std::size_t gap_points = 0; ///< of those, the ones the gap bound added
+  std::size_t below_cap = 0;  ///< balls of the cover (before the gap bound) whose radius is below the cap
+};
+
+/** \brief The count function the search drives. */
+class TargetCounter
+{
+public:
+  virtual ~TargetCounter() = default;
+  /// The cover at T_err `terr`, radius cap `cap_factor` and gap bound `gap_factor` (both in
+  /// neighbourhood radii); the counter keeps its output as "the last trial".
+  virtual TargetTrialCounts count(double terr, double cap_factor, double gap_factor) = 0;
+  /// The last trial is the closest to the target so far: keep it as the result.
+  virtual void keepLast() = 0;
+};
+
+/** \brief Where the search starts. */
+struct TargetSearchSetup
+{
+  double target = 0;             ///< output points wanted (fixed points + balls)
+  std::size_t fixed_points = 0;  ///< output points every trial has (the feature points)
+  double start_terr = 1e-3;      ///< the first T_err tried
+  double cap_factor = 5;         ///< the radius cap the target implies (neighbourhood radii)
+  double max_cap_factor = 5;     ///< the widest cap the search may reach (the plain radius cap)
+  double gap_ratio = 0.6;        ///< the gap bound as a multiple of the cap (0: no gap bound)
+};
+
+/** \brief The best trial. */
+struct TargetSearchResult
+{
+  double terr = 0;               ///< its T_err
+  double cap_factor = 0;         ///< the cap of the last search that improved on the one before
+  double gap_factor = 0;         ///< its gap bound, in neighbourhood radii
+  std::size_t gap_points = 0;    ///< its gap points
+  std::size_t output_points = 0; ///< fixed points + its balls
+  int trials = 0;                ///< count() calls
+  bool reached = false;          ///< within 1% of the target
+};
+
+/** \brief Search as described above; `counter` is called for every trial and told of every new
+ * best one. At least one trial is made. */
+TargetSearchResult searchTargetSize(const TargetSearchSetup& setup, TargetCounter& counter);
+
+}  // namespace pcl_ecs

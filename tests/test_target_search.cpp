@@ -1,0 +1,162 @@
+// The target-size search (stages/target_search.h) against synthetic count functions whose answer
+// is known: a power law in T_err, a floor the radius cap sets, and gap points that a wider bound
+// removes.
+#include <pcl_ecs/stages/target_search.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace
+{
+using pcl_ecs::TargetSearchResult;
+using pcl_ecs::TargetSearchSetup;
+using pcl_ecs::TargetTrialCounts;
+
+/// A counter from a formula; remembers every trial and which one it was told to keep.
+class FormulaCounter : public pcl_ecs::TargetCounter
+{
+public:
+  explicit FormulaCounter(std::function<TargetTrialCounts(double, double, double)> f) : f_(std::move(f)) {}
+  TargetTrialCounts count(double terr, double cap, double gap) override
+  {
+    last_ = f_(terr, cap, gap);
+    trials.push_back({terr, cap, gap});
+    last_index_ = trials.size() - 1;
+    return last_;
+  }
+  void keepLast() override
+  {
+    kept = last_;
+    kept_index = last_index_;
+  }
+  struct Trial
+  {
+    double terr, cap, gap;
+  };
+  std::vector<Trial> trials;
+  TargetTrialCounts kept;
+  std::size_t kept_index = static_cast<std::size_t>(-1);
+
+private:
+  std::function<TargetTrialCounts(double, double, double)> f_;
+  TargetTrialCounts last_;
+  std::size_t last_index_ = 0;
+};
+
+/// balls = c T^-p, never at the cap.
+TargetTrialCounts powerLaw(double terr, double c, double p)
+{
+  TargetTrialCounts t;
+  t.balls = static_cast<std::size_t>(std::llround(c * std::pow(terr, -p)));
+  t.below_cap = t.balls;
+  return t;
+}
+
+TargetSearchSetup setupFor(double target, std::size_t fixed)
+{
+  TargetSearchSetup s;
+  s.target = target;
+  s.fixed_points = fixed;
+  s.start_terr = 1e-3;
+  s.cap_factor = 2.0;
+  s.max_cap_factor = 5.0;
+  s.gap_ratio = 0.0;
+  return s;
+}
+}  // namespace
+
+TEST(TargetSearch, FindsThePowerLawsTErrWithinOnePercentFromAboveAndBelow)
+{
+  // balls = 50 T^-0.5: 50,000 balls at T = 1e-6, 1,581 at 1e-3, 500 at 1e-2.
+  for (const double target : {300.0, 1000.0, 5000.0, 40000.0})
+  {
+    FormulaCounter counter([](double t, double, double) { return powerLaw(t, 50.0, 0.5); });
+    const std::size_t fixed = 120;
+    const TargetSearchResult r = pcl_ecs::searchTargetSize(setupFor(target, fixed), counter);
+    EXPECT_TRUE(r.reached) << target;
+    EXPECT_LE(std::abs(static_cast<double>(r.output_points) - target), 0.01 * target) << target;
+    // The T it reports gives the size it reports.
+    EXPECT_EQ(powerLaw(r.terr, 50.0, 0.5).balls + fixed, r.output_points);
+    // The kept trial is the reported one, and every trial was counted.
+    EXPECT_EQ(counter.kept.balls + fixed, r.output_points);
+    EXPECT_EQ(counter.trials[counter.kept_index].terr, r.terr);
+    EXPECT_EQ(static_cast<std::size_t>(r.trials), counter.trials.size());
+    // No cap or gap widening was needed: every trial at the starting cap.
+    for (const auto& t : counter.trials)
+      EXPECT_EQ(t.cap, 2.0);
+    EXPECT_LE(r.trials, 15) << target;
+  }
+}
+
+TEST(TargetSearch, WidensTheCapWhenTheCapSetsTheCountAndSaysWhenItCannotReach)
+{
+  // The cap sets a floor: balls >= 8000 / cap^2 (every ball at the cap), whatever T.
+  auto counts = [](double t, double cap, double) {
+    TargetTrialCounts c = powerLaw(t, 50.0, 0.5);
+    const std::size_t floor = static_cast<std::size_t>(8000.0 / (cap * cap));
+    if (c.balls <= floor)
+    {
+      c.balls = floor;
+      c.below_cap = 0;
+    }
+    return c;
+  };
+  {
+    // 600 balls: below the floor at cap 2 (2000), reachable at cap 4 (500), within the plain cap 5.
+    FormulaCounter counter(counts);
+    const TargetSearchResult r = pcl_ecs::searchTargetSize(setupFor(600.0, 0), counter);
+    EXPECT_TRUE(r.reached);
+    EXPECT_LE(std::abs(static_cast<double>(r.output_points) - 600.0), 6.0);
+    EXPECT_GT(r.cap_factor, 2.0);
+    EXPECT_LE(r.cap_factor, 5.0);
+  }
+  {
+    // 200 balls: below the floor even at the plain cap (8000 / 25 = 320): the closest is 320.
+    FormulaCounter counter(counts);
+    const TargetSearchResult r = pcl_ecs::searchTargetSize(setupFor(200.0, 0), counter);
+    EXPECT_FALSE(r.reached);
+    EXPECT_EQ(r.output_points, 320u);
+    EXPECT_EQ(r.cap_factor, 5.0);
+    EXPECT_EQ(counter.kept.balls, 320u);
+  }
+}
+
+TEST(TargetSearch, WidensTheGapBoundWhenItsPointsAloneExceedTheExcess)
+{
+  // Gap points: 2000 exp(-3 gap); the cover itself follows the power law. With the gap bound at
+  // 0.6 × cap 2 = 1.2 there are 55 gap points: a target 40 below what T alone reaches at its
+  // smallest count needs a wider bound.
+  auto counts = [](double t, double cap, double gap) {
+    TargetTrialCounts c = powerLaw(std::max(t, 0.05), 50.0, 0.5);  // at least 224 balls
+    c.below_cap = c.balls;
+    (void)cap;
+    c.gap_points = gap > 0.0 ? static_cast<std::size_t>(2000.0 * std::exp(-3.0 * gap)) : 0;
+    c.balls += c.gap_points;
+    return c;
+  };
+  TargetSearchSetup s = setupFor(240.0, 0);
+  s.gap_ratio = 0.6;
+  FormulaCounter counter(counts);
+  const TargetSearchResult r = pcl_ecs::searchTargetSize(s, counter);
+  EXPECT_TRUE(r.reached);
+  EXPECT_LE(std::abs(static_cast<double>(r.output_points) - 240.0), 2.4);
+  EXPECT_GT(r.gap_factor, 1.2);
+  EXPECT_LE(r.gap_factor, r.cap_factor);
+  EXPECT_EQ(r.gap_points, static_cast<std::size_t>(2000.0 * std::exp(-3.0 * r.gap_factor)));
+}
+
+TEST(TargetSearch, TheSameCountsGiveTheSameTrials)
+{
+  auto counts = [](double t, double, double) { return powerLaw(t, 37.0, 0.7); };
+  FormulaCounter a(counts), b(counts);
+  const TargetSearchResult ra = pcl_ecs::searchTargetSize(setupFor(2500.0, 10), a);
+  const TargetSearchResult rb = pcl_ecs::searchTargetSize(setupFor(2500.0, 10), b);
+  ASSERT_EQ(a.trials.size(), b.trials.size());
+  for (std::size_t i = 0; i < a.trials.size(); ++i)
+    EXPECT_EQ(a.trials[i].terr, b.trials[i].terr);
+  EXPECT_EQ(ra.terr, rb.terr);
+}
