@@ -331,6 +331,116 @@ void learnMargin(Worker& w)
 constexpr std::ptrdiff_t kBlock = 32;          // consecutive points answered together
 constexpr std::size_t kMaxCandidates = 4096;   // beyond this a block's points are answered alone
 
+/// The gathered candidates' coordinates and indices in the worker's arrays (distances padded to
+/// whole groups of 8 for the selection).
+inline void loadCandidates(const LocalCloud& cloud, Worker& w)
+{
+  const std::size_t m = w.found.size();
+  w.cx.resize(m);
+  w.cy.resize(m);
+  w.cz.resize(m);
+  w.cid.resize(m);
+  const std::size_t m8 = (m + 7) & ~std::size_t{7};  // whole groups of 8 for the selection
+  w.dist.resize(m8);
+  for (std::size_t j = m; j < m8; ++j)
+    w.dist[j] = std::numeric_limits<float>::infinity();  // within no bound
+  for (std::size_t j = 0; j < m; ++j)
+  {
+    const pcl::PointXYZ& p = cloud[w.found[j]];
+    w.cx[j] = p.x;
+    w.cy[j] = p.y;
+    w.cz[j] = p.z;
+    w.cid[j] = w.found[j];
+  }
+}
+
+/// How many of the m candidates (their squared distances in d2) to rank for point q: their
+/// positions in w.sel, or m when every candidate must be ranked.
+inline std::size_t candidatesWithinBound(const LocalCloud& cloud, const pcl::PointXYZ& q, std::ptrdiff_t prev,
+                                         float prev_kth, std::size_t ku, std::size_t m, const float* d2, Worker& w)
+{
+  // Only candidates within a bound can be among the k nearest when at least k others are (q
+  // itself is inside every bound): the previous point's k neighbours and that point itself lie
+  // within its k-th distance plus the step between the two. Collected without branches, then
+  // ranked; if fewer than k + 1 fall inside (rounding), every candidate is ranked. Either way
+  // the result is the k smallest keys.
+  //
+  // First a guess a little past the previous k-th distance (neighbouring points have similar
+  // ones): 1.1 × it holds ~1.2 k candidates on a surface (the ranking below is quadratic in
+  // their number, so a tight guess pays; 1.06-1.2 were measured); when fewer than k others
+  // fall inside it, the sure bound: the previous k-th distance plus the step. The block's first
+  // point has no previous one: its guess is the margin (a recent k-th distance), and no sure
+  // bound.
+  std::size_t inside = m;
+  {
+    float guess = w.margin * 1.10f, sure = 0.f;
+    if (prev >= 0)
+    {
+      const float step = (q.getVector3fMap() - cloud[prev].getVector3fMap()).norm();
+      guess = prev_kth * 1.10f;
+      sure = (prev_kth + step) * 1.0001f;
+    }
+    std::uint32_t* sel = w.sel.data();
+    for (const float b : {guess, sure})
+    {
+      const float bound = b * b;
+      const std::size_t c = selectWithin(d2, m, bound, sel, w.wide);
+      if (c > ku)
+      {
+        inside = c;
+        if (c > kRankMax)
+        {
+          // Too many to rank (the density fell since the previous point): try a bound that on
+          // a surface (count ~ bound²) would hold ~1.3 (k + 1); kept only if it holds more than k.
+          const float tighter = bound * (1.3f * static_cast<float>(ku + 1) / static_cast<float>(c));
+          const std::size_t ct = selectWithin(d2, m, tighter, sel, w.wide);
+          if (ct > ku)
+            inside = ct;
+          else
+            selectWithin(d2, m, bound, sel, w.wide);
+        }
+        break;
+      }
+      if (guess >= sure)
+        break;
+    }
+  }
+  return inside;
+}
+
+/// The k smallest (distance, index) keys of point i among the candidates (`inside` of them in
+/// w.sel, or all m), sorted; returns how many were found (k, or fewer when the candidates are).
+inline std::size_t rankCandidates(std::ptrdiff_t i, std::size_t inside, std::size_t m, std::size_t ku,
+                                  const float* d2, std::uint64_t* keys, Worker& w)
+{
+  std::size_t filled = 0;
+  auto consider = [&](std::size_t j) {
+    if (w.cid[j] != i)
+      offerKey(pairKey(d2[j], w.cid[j]), ku, keys, filled);
+  };
+  if (inside < m && inside <= kRankMax)
+  {
+    // A bound holds more than k candidates (q among them at most once): k or more others.
+    std::size_t c = 0;
+    for (std::size_t s = 0; s < inside; ++s)
+    {
+      const std::uint32_t j = w.sel[s];
+      w.rank_d[c] = d2[j];
+      w.rank_id[c] = w.cid[j];
+      c += w.cid[j] != i ? 1 : 0;
+    }
+    smallestByRank(w.rank_d.data(), w.rank_id.data(), c, ku, keys, w.wide);
+    filled = ku;
+  }
+  else if (inside < m)
+    for (std::size_t s = 0; s < inside; ++s)
+      consider(w.sel[s]);
+  else
+    for (std::size_t j = 0; j < m; ++j)
+      consider(j);
+  return filled;
+}
+
 /// The K nearest of the points [first, last) together: one radius query of `search` around the
 /// block gathers every point that can be among their neighbours, then each point picks its K
 /// nearest from those by brute force. A point whose K-th distance does not stay inside the
@@ -381,25 +491,10 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
     learnMargin(w);
     return;
   }
-  w.cx.resize(m);
-  w.cy.resize(m);
-  w.cz.resize(m);
-  w.cid.resize(m);
-  const std::size_t m8 = (m + 7) & ~std::size_t{7};  // whole groups of 8 for the selection
-  w.dist.resize(m8);
-  for (std::size_t j = m; j < m8; ++j)
-    w.dist[j] = std::numeric_limits<float>::infinity();  // within no bound
-  for (std::size_t j = 0; j < m; ++j)
-  {
-    const pcl::PointXYZ& p = cloud[w.found[j]];
-    w.cx[j] = p.x;
-    w.cy[j] = p.y;
-    w.cz[j] = p.z;
-    w.cid[j] = w.found[j];
-  }
+  loadCandidates(cloud, w);
   const std::size_t ku = static_cast<std::size_t>(k);
   w.keys.resize(ku);
-  w.sel.resize(m8);
+  w.sel.resize(w.dist.size());  // whole groups of 8 (loadCandidates)
   w.rank_d.resize(kRankMax + 8);
   w.rank_id.resize(kRankMax + 8);
   std::ptrdiff_t prev = -1;  // the last point of the block answered from the candidates
@@ -415,76 +510,8 @@ void nearestOfBlock(const LocalCloud& cloud, const pcl::search::Search<pcl::Poin
     std::size_t filled = 0;
     float* d2 = w.dist.data();
     squaredDistances(q, w.cx.data(), w.cy.data(), w.cz.data(), m, d2, w.wide);
-    // Only candidates within a bound can be among the k nearest when at least k others are (q
-    // itself is inside every bound): the previous point's k neighbours and that point itself lie
-    // within its k-th distance plus the step between the two. Collected without branches, then
-    // ranked; if fewer than k + 1 fall inside (rounding), every candidate is ranked. Either way
-    // the result is the k smallest keys.
-    //
-    // First a guess a little past the previous k-th distance (neighbouring points have similar
-    // ones): 1.1 × it holds ~1.2 k candidates on a surface (the ranking below is quadratic in
-    // their number, so a tight guess pays; 1.06-1.2 were measured); when fewer than k others
-    // fall inside it, the sure bound: the previous k-th distance plus the step. The block's first
-    // point has no previous one: its guess is the margin (a recent k-th distance), and no sure
-    // bound.
-    std::size_t inside = m;
-    {
-      float guess = w.margin * 1.10f, sure = 0.f;
-      if (prev >= 0)
-      {
-        const float step = (q.getVector3fMap() - cloud[prev].getVector3fMap()).norm();
-        guess = prev_kth * 1.10f;
-        sure = (prev_kth + step) * 1.0001f;
-      }
-      std::uint32_t* sel = w.sel.data();
-      for (const float b : {guess, sure})
-      {
-        const float bound = b * b;
-        const std::size_t c = selectWithin(d2, m, bound, sel, w.wide);
-        if (c > ku)
-        {
-          inside = c;
-          if (c > kRankMax)
-          {
-            // Too many to rank (the density fell since the previous point): try a bound that on
-            // a surface (count ~ bound²) would hold ~1.3 (k + 1); kept only if it holds more than k.
-            const float tighter = bound * (1.3f * static_cast<float>(ku + 1) / static_cast<float>(c));
-            const std::size_t ct = selectWithin(d2, m, tighter, sel, w.wide);
-            if (ct > ku)
-              inside = ct;
-            else
-              selectWithin(d2, m, bound, sel, w.wide);
-          }
-          break;
-        }
-        if (guess >= sure)
-          break;
-      }
-    }
-    auto consider = [&](std::size_t j) {
-      if (w.cid[j] != i)
-        offerKey(pairKey(d2[j], w.cid[j]), ku, keys, filled);
-    };
-    if (inside < m && inside <= kRankMax)
-    {
-      // A bound holds more than k candidates (q among them at most once): k or more others.
-      std::size_t c = 0;
-      for (std::size_t s = 0; s < inside; ++s)
-      {
-        const std::uint32_t j = w.sel[s];
-        w.rank_d[c] = d2[j];
-        w.rank_id[c] = w.cid[j];
-        c += w.cid[j] != i ? 1 : 0;
-      }
-      smallestByRank(w.rank_d.data(), w.rank_id.data(), c, ku, keys, w.wide);
-      filled = ku;
-    }
-    else if (inside < m)
-      for (std::size_t s = 0; s < inside; ++s)
-        consider(w.sel[s]);
-    else
-      for (std::size_t j = 0; j < m; ++j)
-        consider(j);
+    const std::size_t inside = candidatesWithinBound(cloud, q, prev, prev_kth, ku, m, d2, w);
+    filled = rankCandidates(i, inside, m, ku, d2, keys, w);
     float kth = filled ? keyDistance(keys[filled - 1]) : 0.f;
     // q's k-th neighbour may lie outside the gathered ball, but no farther than the k-th of the
     // candidates: one radius query that far holds every point of the k nearest (ties at that

@@ -68,18 +68,94 @@ std::uint8_t pcdDatatype(char type, std::uint64_t size)
 constexpr std::uint64_t kMaxPoints = static_cast<std::uint64_t>(std::numeric_limits<std::int32_t>::max());
 }  // namespace
 
-PcdHeader parsePcdHeader(const std::function<bool(std::string&)>& next_line, std::uint64_t max_points)
+namespace
+{
+/// The header's keyword lines as read, before they are checked against each other.
+struct RawPcdHeader
 {
   std::vector<std::string> names, types;
   std::vector<std::uint64_t> sizes, counts;
   std::uint64_t width = 0, height = 1, points = 0;
   bool have_width = false, have_points = false, have_fields = false, have_height = false;
-  std::string data;
+  std::string data;  ///< the DATA line's encoding: the last line of the header
+};
+
+/// One header line `key args...` (line number line_no) into `raw` (VIEWPOINT into `header`).
+void readPcdKeyword(const std::string& key, const std::vector<std::string>& args, int line_no, RawPcdHeader& raw,
+                    PcdHeader& header)
+{
+  auto needOne = [&]() -> std::uint64_t {
+    std::uint64_t v = 0;
+    if (args.size() != 1 || !parseUnsigned(args[0], v))
+      fail("header line ", line_no, ": ", detail::quote(key), " needs one non-negative integer");
+    return v;
+  };
+  if (key == "FIELDS" || key == "COLUMNS")
+  {
+    if (args.empty())
+      fail("header line ", line_no, ": FIELDS lists no field");
+    raw.names = args;
+    raw.have_fields = true;
+  }
+  else if (key == "SIZE" || key == "COUNT")
+  {
+    std::vector<std::uint64_t>& dst = key == "SIZE" ? raw.sizes : raw.counts;
+    dst.clear();
+    for (const auto& a : args)
+    {
+      std::uint64_t v = 0;
+      if (!parseUnsigned(a, v) || v == 0 || v > 1u << 20)
+        fail("header line ", line_no, ": bad ", detail::quote(key), " value '", detail::quote(a), "'");
+      dst.push_back(v);
+    }
+  }
+  else if (key == "TYPE")
+  {
+    raw.types = args;
+  }
+  else if (key == "WIDTH")
+  {
+    raw.width = needOne();
+    raw.have_width = true;
+  }
+  else if (key == "HEIGHT")
+  {
+    raw.height = needOne();
+    raw.have_height = true;
+  }
+  else if (key == "POINTS")
+  {
+    raw.points = needOne();
+    raw.have_points = true;
+  }
+  else if (key == "VIEWPOINT")
+  {
+    if (args.size() != 7)
+      fail("header line ", line_no, ": VIEWPOINT needs 7 numbers");
+    for (std::size_t i = 0; i < 7; ++i)
+      if (!detail::parseNumber(args[i], header.viewpoint[i]))
+        fail("header line ", line_no, ": bad VIEWPOINT value '", detail::quote(args[i]), "'");
+  }
+  else if (key == "DATA")
+  {
+    if (args.size() != 1 || (args[0] != "ascii" && args[0] != "binary" && args[0] != "binary_compressed"))
+      fail("header line ", line_no, ": DATA must be ascii, binary or binary_compressed");
+    raw.data = args[0];
+  }
+  else
+  {
+    fail("header line ", line_no, ": unknown keyword '", detail::quote(key), "': not a PCD header");
+  }
+}
+}  // namespace
+
+PcdHeader parsePcdHeader(const std::function<bool(std::string&)>& next_line, std::uint64_t max_points)
+{
+  RawPcdHeader raw;
   int line_no = 0;
   PcdHeader header;
   std::string line;
-
-  while (data.empty())
+  while (raw.data.empty())
   {
     if (!next_line(line))
       fail("the header ends before its DATA line (", line_no, " lines read)");
@@ -91,75 +167,18 @@ PcdHeader parsePcdHeader(const std::function<bool(std::string&)>& next_line, std
     if (!line.empty() && line.back() == '\r')
       line.pop_back();
     const auto words = splitWords(line);
-    if (words.empty() || words[0][0] == '#')
+    if (words.empty() || words[0][0] == '#' || words[0] == "VERSION")
       continue;
-    const std::string& key = words[0];
-    const std::vector<std::string> args(words.begin() + 1, words.end());
-    auto needOne = [&]() -> std::uint64_t {
-      std::uint64_t v = 0;
-      if (args.size() != 1 || !parseUnsigned(args[0], v))
-        fail("header line ", line_no, ": ", detail::quote(key), " needs one non-negative integer");
-      return v;
-    };
-    if (key == "VERSION")
-      continue;
-    if (key == "FIELDS" || key == "COLUMNS")
-    {
-      if (args.empty())
-        fail("header line ", line_no, ": FIELDS lists no field");
-      names = args;
-      have_fields = true;
-    }
-    else if (key == "SIZE" || key == "COUNT")
-    {
-      std::vector<std::uint64_t>& dst = key == "SIZE" ? sizes : counts;
-      dst.clear();
-      for (const auto& a : args)
-      {
-        std::uint64_t v = 0;
-        if (!parseUnsigned(a, v) || v == 0 || v > 1u << 20)
-          fail("header line ", line_no, ": bad ", detail::quote(key), " value '", detail::quote(a), "'");
-        dst.push_back(v);
-      }
-    }
-    else if (key == "TYPE")
-    {
-      types = args;
-    }
-    else if (key == "WIDTH")
-    {
-      width = needOne();
-      have_width = true;
-    }
-    else if (key == "HEIGHT")
-    {
-      height = needOne();
-      have_height = true;
-    }
-    else if (key == "POINTS")
-    {
-      points = needOne();
-      have_points = true;
-    }
-    else if (key == "VIEWPOINT")
-    {
-      if (args.size() != 7)
-        fail("header line ", line_no, ": VIEWPOINT needs 7 numbers");
-      for (std::size_t i = 0; i < 7; ++i)
-        if (!detail::parseNumber(args[i], header.viewpoint[i]))
-          fail("header line ", line_no, ": bad VIEWPOINT value '", detail::quote(args[i]), "'");
-    }
-    else if (key == "DATA")
-    {
-      if (args.size() != 1 || (args[0] != "ascii" && args[0] != "binary" && args[0] != "binary_compressed"))
-        fail("header line ", line_no, ": DATA must be ascii, binary or binary_compressed");
-      data = args[0];
-    }
-    else
-    {
-      fail("header line ", line_no, ": unknown keyword '", detail::quote(key), "': not a PCD header");
-    }
+    readPcdKeyword(words[0], std::vector<std::string>(words.begin() + 1, words.end()), line_no, raw, header);
   }
+  std::vector<std::string>& names = raw.names;
+  std::vector<std::string>& types = raw.types;
+  std::vector<std::uint64_t>& sizes = raw.sizes;
+  std::vector<std::uint64_t>& counts = raw.counts;
+  std::uint64_t width = raw.width, height = raw.height, points = raw.points;
+  const bool have_width = raw.have_width, have_points = raw.have_points, have_fields = raw.have_fields,
+             have_height = raw.have_height;
+  const std::string& data = raw.data;
 
   // The header must be complete and consistent.
   if (!have_fields)

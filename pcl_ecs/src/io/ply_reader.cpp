@@ -248,6 +248,37 @@ PlyHeader parsePlyHeader(const std::string& bytes)
 }
 }  // namespace
 
+namespace
+{
+/// Reads past the elements before `vertex_it` (checking that a fixed-size binary element fits
+/// before looping over its count).
+void skipElementsBefore(const std::vector<Element>& elements, std::vector<Element>::const_iterator vertex_it,
+                        int encoding, BodyReader& body)
+{
+  for (auto e = elements.begin(); e != vertex_it; ++e)
+  {
+    // Binary elements without lists have a fixed size: check before looping over a huge count.
+    if (encoding != 0 && std::none_of(e->properties.begin(), e->properties.end(), [](const Property& q) { return q.count_type != 0; }))
+    {
+      std::uint64_t rec = 0;
+      for (const auto& q : e->properties)
+        rec += detail::datatypeSize(q.type);
+      if (rec * e->count > body.remaining())
+        fail("truncated: element ", e->name, " needs more bytes than the file holds");
+    }
+    for (std::uint64_t i = 0; i < e->count; ++i)
+      for (const auto& q : e->properties)
+      {
+        const double n = q.count_type ? body.next(q.count_type, "a list length") : 1.0;
+        if (n < 0 || n > 1e6)
+          fail("element ", e->name, " has a list of ", n, " entries");
+        for (std::uint64_t k = 0; k < static_cast<std::uint64_t>(n); ++k)
+          body.next(q.type, "an element before the vertices");
+      }
+  }
+}
+}  // namespace
+
 void parsePly(const std::string& bytes, pcl::PCLPointCloud2& cloud)
 {
   cloud = pcl::PCLPointCloud2{};
@@ -302,27 +333,7 @@ void parsePly(const std::string& bytes, pcl::PCLPointCloud2& cloud)
 
   // Skip the elements before the vertices, then read them.
   BodyReader body(bytes, pos, encoding);
-  for (auto e = elements.begin(); e != vertex_it; ++e)
-  {
-    // Binary elements without lists have a fixed size: check before looping over a huge count.
-    if (encoding != 0 && std::none_of(e->properties.begin(), e->properties.end(), [](const Property& q) { return q.count_type != 0; }))
-    {
-      std::uint64_t rec = 0;
-      for (const auto& q : e->properties)
-        rec += detail::datatypeSize(q.type);
-      if (rec * e->count > body.remaining())
-        fail("truncated: element ", e->name, " needs more bytes than the file holds");
-    }
-    for (std::uint64_t i = 0; i < e->count; ++i)
-      for (const auto& q : e->properties)
-      {
-        const double n = q.count_type ? body.next(q.count_type, "a list length") : 1.0;
-        if (n < 0 || n > 1e6)
-          fail("element ", e->name, " has a list of ", n, " entries");
-        for (std::uint64_t k = 0; k < static_cast<std::uint64_t>(n); ++k)
-          body.next(q.type, "an element before the vertices");
-      }
-  }
+  skipElementsBefore(elements, vertex_it, encoding, body);
   // Each value takes at least one byte in ascii (plus a separator) and its size in binary.
   std::uint64_t record = 0;
   for (const auto& q : vertex.properties)

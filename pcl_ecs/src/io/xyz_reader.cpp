@@ -12,13 +12,14 @@ namespace io
 
 using detail::fail;
 
-void parseXyz(const std::string& bytes, pcl::PCLPointCloud2& cloud)
+namespace
 {
-  cloud = pcl::PCLPointCloud2{};
-  if (bytes.empty())
-    fail("the file is empty");
+/// The numbers of every point line (comments after '#', separators: whitespace and commas), all
+/// lines with the same column count; `columns` gets that count.
+std::vector<double> readColumns(const std::string& bytes, std::size_t& columns)
+{
   std::vector<double> values;
-  std::size_t columns = 0;
+  columns = 0;
   std::size_t pos = 0;
   int line_no = 0;
   std::vector<double> row;
@@ -65,7 +66,20 @@ void parseXyz(const std::string& bytes, pcl::PCLPointCloud2& cloud)
   }
   if (columns == 0)
     fail("no points in the file");
+  return values;
+}
+
+/// What the columns after x y z hold (the column count and the values decide it).
+struct XyzColumns
+{
+  bool normals = false, colour = false, alpha = false, intensity = false;
+  std::size_t colour_col = 0;
+};
+
+XyzColumns classifyColumns(const std::vector<double>& values, std::size_t columns)
+{
   const std::size_t n = values.size() / columns;
+  XyzColumns k;
   auto isByte = [&](std::size_t c) {
     for (std::size_t i = 0; i < n; ++i)
     {
@@ -75,37 +89,40 @@ void parseXyz(const std::string& bytes, pcl::PCLPointCloud2& cloud)
     }
     return true;
   };
-  bool normals = false, colour = false, alpha = false, intensity = false;
-  std::size_t colour_col = 0;
   if (columns == 4)
-    intensity = true;
+    k.intensity = true;
   else if (columns == 6)
   {
     bool any_above_one = false;
     for (std::size_t i = 0; i < n && !any_above_one; ++i)
       for (std::size_t c = 3; c < 6; ++c)
         any_above_one = any_above_one || values[i * columns + c] > 1.0;
-    colour = isByte(3) && isByte(4) && isByte(5) && any_above_one;
-    normals = !colour;
-    colour_col = 3;
+    k.colour = isByte(3) && isByte(4) && isByte(5) && any_above_one;
+    k.normals = !k.colour;
+    k.colour_col = 3;
   }
   else if (columns == 7)
   {
     if (!(isByte(3) && isByte(4) && isByte(5) && isByte(6)))
       fail("7 columns must be x y z r g b a with colours as integers in [0, 255]");
-    colour = alpha = true;
-    colour_col = 3;
+    k.colour = k.alpha = true;
+    k.colour_col = 3;
   }
   else if (columns == 9)
   {
     if (!(isByte(6) && isByte(7) && isByte(8)))
       fail("9 columns must be x y z nx ny nz r g b with colours as integers in [0, 255]");
-    normals = colour = true;
-    colour_col = 6;
+    k.normals = k.colour = true;
+    k.colour_col = 6;
   }
-  const auto F = pcl::PCLPointField::FLOAT32;
-  // Coordinates are kept as double when float would move a point by more than 1e-6 of the
-  // bounding-box diagonal (centimetre UTM coordinates, for example); otherwise float, as PCL's.
+  return k;
+}
+
+/// True when float would move a point by more than 1e-6 of the bounding-box diagonal (centimetre
+/// UTM coordinates, for example): the coordinates are then kept as double, otherwise float, as PCL's.
+bool needsDoubleCoordinates(const std::vector<double>& values, std::size_t columns)
+{
+  const std::size_t n = values.size() / columns;
   double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
   for (std::size_t i = 0; i < n; ++i)
     for (int c = 0; c < 3; ++c)
@@ -129,6 +146,23 @@ void parseXyz(const std::string& bytes, pcl::PCLPointCloud2& cloud)
     const double v = values[i];
     wide = std::isfinite(v) && std::abs(static_cast<double>(static_cast<float>(v)) - v) > tolerance;
   }
+  return wide;
+}
+}  // namespace
+
+void parseXyz(const std::string& bytes, pcl::PCLPointCloud2& cloud)
+{
+  cloud = pcl::PCLPointCloud2{};
+  if (bytes.empty())
+    fail("the file is empty");
+  std::size_t columns = 0;
+  const std::vector<double> values = readColumns(bytes, columns);
+  const std::size_t n = values.size() / columns;
+  const XyzColumns k = classifyColumns(values, columns);
+  const bool normals = k.normals, colour = k.colour, alpha = k.alpha, intensity = k.intensity;
+  const std::size_t colour_col = k.colour_col;
+  const auto F = pcl::PCLPointField::FLOAT32;
+  const bool wide = needsDoubleCoordinates(values, columns);
   const auto C = wide ? pcl::PCLPointField::FLOAT64 : F;
   const std::uint32_t ox = detail::addField(cloud, "x", C);
   detail::addField(cloud, "y", C);

@@ -270,25 +270,19 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
   }
   return ball;
 }
-}  // namespace
-
-void coverWithBalls(const CoverInput& in, const Parameters& params, double error_threshold,
-                    CoverOutput& out)
+/// A point that may start a ball (step 3): not a feature, allowed (a tile's own point), not
+/// covered already by a neighbouring tile.
+bool mayBeCentre(const CoverInput& in, std::size_t i)
 {
-  const std::size_t n = in.cloud.size();
-  out = CoverOutput{};
-  out.owner.assign(n, -1);
-  const double cap = std::max(params.radius_cap_factor * in.neighborhood_radius, 0.0);
+  return !in.is_feature[i] && (!in.centre_allowed || (*in.centre_allowed)[i]) && (!in.pre_covered || !(*in.pre_covered)[i]);
+}
 
-  // The centres (step 3): the non-feature points allowed to start a ball, and their box.
-  auto eligible = [&](std::size_t i) {
-    return !in.is_feature[i] && (!in.centre_allowed || (*in.centre_allowed)[i]) &&
-           (!in.pre_covered || !(*in.pre_covered)[i]);
-  };
-  const int threads = resolveThreads(params.threads);
-  const auto count = static_cast<std::ptrdiff_t>(n);
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-  Eigen::Vector3d hi = -lo;
+/// The box of the points that may start a ball; false when there are none.
+bool centreBox(const CoverInput& in, int threads, Eigen::Vector3d& lo, Eigen::Vector3d& hi)
+{
+  const auto count = static_cast<std::ptrdiff_t>(in.cloud.size());
+  lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  hi = -lo;
 #pragma omp parallel num_threads(threads)
   {
     Eigen::Vector3d lo_t = lo, hi_t = hi;
@@ -296,7 +290,7 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
     for (std::ptrdiff_t ii = 0; ii < count; ++ii)
     {
       const auto i = static_cast<std::size_t>(ii);
-      if (!eligible(i))
+      if (!mayBeCentre(in, i))
         continue;
       const Eigen::Vector3d q = in.cloud[i].getVector3fMap().cast<double>();
       lo_t = lo_t.cwiseMin(q);
@@ -308,9 +302,31 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
       hi = hi.cwiseMax(hi_t);
     }
   }
-  if (!(lo.x() <= hi.x()))
-    return;  // no centre
+  return lo.x() <= hi.x();
+}
 
+/// The centres sorted into cells and each cell's centres in a seeded order (cellOrder()).
+struct CellOrder
+{
+  struct Entry
+  {
+    std::uint64_t cell;  // colour in the bits from colour_shift up, then the cell coordinates
+    int point;
+  };
+  std::vector<Entry, UninitialisedAllocator<Entry>> entries;  ///< the centres, cell by cell
+  std::vector<std::size_t> cell_begin;    ///< first entry of each cell, and the end
+  std::vector<std::size_t> colour_begin;  ///< first cell of colour >= c, for c in 0..8
+  std::size_t cells = 0;
+};
+
+CellOrder cellOrder(const CoverInput& in, const Parameters& params, double cap, const Eigen::Vector3d& lo,
+                    const Eigen::Vector3d& hi, int threads)
+{
+  const std::size_t n = in.cloud.size();
+  const auto count = static_cast<std::ptrdiff_t>(n);
+  CellOrder order;
+  using Entry = CellOrder::Entry;
+  auto& entries = order.entries;
   // Cells of side s > 2·cap, coloured by the parity of their grid coordinates: two cells of one
   // colour are at least s apart, so balls centred in them (radius <= cap) cover disjoint sets and
   // can be made concurrently. The eight colours run one after another; inside a cell the centres
@@ -330,17 +346,12 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
   const int colour_shift = width[0] + width[1] + width[2];
   // Points that are not centres get "colour 8": after every cell, one bit above the colours.
   const std::uint64_t not_a_centre = std::uint64_t{8} << colour_shift;
-  struct Entry
-  {
-    std::uint64_t cell;  // colour in the bits from colour_shift up, then the cell coordinates
-    int point;
-  };
-  std::vector<Entry, UninitialisedAllocator<Entry>> entries(n);  // every entry written below
+  entries.resize(n);  // every entry written below
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (std::ptrdiff_t ii = 0; ii < count; ++ii)
   {
     const auto i = static_cast<std::size_t>(ii);
-    if (!eligible(i))
+    if (!mayBeCentre(in, i))
     {
       entries[i] = {not_a_centre, static_cast<int>(i)};
       continue;
@@ -358,11 +369,11 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
   while (!entries.empty() && entries.back().cell == not_a_centre)
     entries.pop_back();
   // Cell boundaries, and where each colour starts.
-  std::vector<std::size_t> cell_begin;
+  std::vector<std::size_t>& cell_begin = order.cell_begin;
   for (std::size_t e = 0; e < entries.size(); ++e)
     if (e == 0 || entries[e].cell != entries[e - 1].cell)
       cell_begin.push_back(e);
-  const std::size_t cells = cell_begin.size();
+  const std::size_t cells = order.cells = cell_begin.size();
   cell_begin.push_back(entries.size());
   // Each cell's centres in a seeded order drawn from the run's seed and the cell's key (a uniform
   // order within each cell, as a global shuffle would give, without its scattered reads).
@@ -375,20 +386,26 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
                   partSeed(params.seed, entries[b].cell));
   }
   // Cells are candidates colour-major: colour_begin[col] is the first cell of colour >= col.
-  std::vector<std::size_t> colour_begin(9, cells);
+  order.colour_begin.assign(9, cells);
+  std::vector<std::size_t>& colour_begin = order.colour_begin;
   std::size_t next_colour = 0;
   for (std::size_t k = 0; k < cells; ++k)
     while (next_colour <= (entries[cell_begin[k]].cell >> colour_shift))
       colour_begin[next_colour++] = k;
 
-  // Ball keys while running: cell index << 32 | index in the cell; renumbered at the end.
-  std::vector<std::vector<CoverBall>> cell_balls(cells);
-  std::vector<std::int64_t> owner(n, -1);
-  constexpr std::int64_t kPreCovered = std::numeric_limits<std::int64_t>::max();
-  if (in.pre_covered)
-    for (std::size_t i = 0; i < n; ++i)
-      if ((*in.pre_covered)[i])
-        owner[i] = kPreCovered;
+  return order;
+}
+
+/// The balls of every cell, colour after colour (cells of one colour in parallel). Ball keys
+/// while running: cell index << 32 | index in the cell; `owner` holds them.
+std::vector<std::vector<CoverBall>> coverCells(const CoverInput& in, const Parameters& params, double error_threshold,
+                                               double cap, const CellOrder& order, int threads,
+                                               std::vector<std::int64_t>& owner)
+{
+  const std::vector<std::size_t>& cell_begin = order.cell_begin;
+  const std::vector<std::size_t>& colour_begin = order.colour_begin;
+  const auto& entries = order.entries;
+  std::vector<std::vector<CoverBall>> cell_balls(order.cells);
   // A cell's first guess: the geometric mean of the base-tolerance radii of the balls of the
   // colours before (known and fixed before the colour starts: the same whatever the threads).
   double start_radius = in.neighborhood_radius;
@@ -431,6 +448,33 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
       }
     }
   }
+
+  return cell_balls;
+}
+}  // namespace
+
+void coverWithBalls(const CoverInput& in, const Parameters& params, double error_threshold,
+                    CoverOutput& out)
+{
+  const std::size_t n = in.cloud.size();
+  out = CoverOutput{};
+  out.owner.assign(n, -1);
+  const double cap = std::max(params.radius_cap_factor * in.neighborhood_radius, 0.0);
+  const int threads = resolveThreads(params.threads);
+  const auto count = static_cast<std::ptrdiff_t>(n);
+  // The centres (step 3): the non-feature points allowed to start a ball, and their box.
+  Eigen::Vector3d lo, hi;
+  if (!centreBox(in, threads, lo, hi))
+    return;  // no centre
+  const CellOrder order = cellOrder(in, params, cap, lo, hi, threads);
+  const std::size_t cells = order.cells;
+  std::vector<std::int64_t> owner(n, -1);
+  constexpr std::int64_t kPreCovered = std::numeric_limits<std::int64_t>::max();
+  if (in.pre_covered)
+    for (std::size_t i = 0; i < n; ++i)
+      if ((*in.pre_covered)[i])
+        owner[i] = kPreCovered;
+  std::vector<std::vector<CoverBall>> cell_balls = coverCells(in, params, error_threshold, cap, order, threads, owner);
 
   // Canonical ball numbering: by cell (colour-major), then by order within the cell.
   std::vector<std::size_t> first_id(cells + 1, 0);

@@ -175,6 +175,82 @@ RadiusEvaluation evaluateRadius(const QuadricSamples& samples, const Eigen::Vect
   return evaluateRadius(planes, r, L, form);
 }
 
+namespace
+{
+constexpr double kTight = 0.98;  // a bracket is done when lo >= kTight × hi
+
+/// The radius search's bracket: the largest radius found with E <= tolerance (lo) and the
+/// smallest found above it (hi), with the last two probes for the log-log model.
+struct Bracket
+{
+  double lo = -1.0, hi = -1.0, e_lo = 0.0, e_hi = 0.0;
+  bool last_passed = false;
+  double prev_r = -1.0, prev_e = 0.0, last_r = -1.0, last_e = 0.0;  // the last two probes
+
+  void record(double r, double e, bool passed)
+  {
+    prev_r = last_r;
+    prev_e = last_e;
+    last_r = r;
+    last_e = e;
+    last_passed = passed;
+    if (passed)
+    {
+      lo = r;
+      e_lo = e;
+    }
+    else
+    {
+      hi = r;
+      e_hi = e;
+    }
+  }
+  /// The local exponent of E ~ r^p from the last two probes (the slope in log-log), or
+  /// `fallback` until there are two far enough apart.
+  double localExponent(double fallback) const
+  {
+    if (prev_r > 0.0 && prev_e > 0.0 && last_e > 0.0 && std::abs(std::log(last_r / prev_r)) > 0.01)
+      return std::min(std::max(std::log(last_e / prev_e) / std::log(last_r / prev_r), 0.5), 4.0);
+    return fallback;
+  }
+};
+
+/// Refine between the last good and the first bad radius (to 2%), probing with `probe`.
+template <class Probe>
+void refineBracket(Bracket& k, double tolerance, Probe probe)
+{
+  bool tried_closing = false;  // the last probe was a closing one that did not close
+  for (int it = 0; k.hi > 0.0 && k.lo < kTight * k.hi && it < 10; ++it)
+  {
+    double theta = 0.5;
+    if (k.e_lo > 0.0 && k.e_hi > k.e_lo)
+      theta = std::log(tolerance / k.e_lo) / std::log(k.e_hi / k.e_lo);
+    const double predicted = k.lo * std::pow(k.hi / k.lo, std::min(std::max(theta, 0.0), 1.0));
+    if (k.hi * kTight * kTight <= k.lo)
+    {
+      // Any radius in [kTight hi, lo / kTight] closes the bracket, whether it passes or fails.
+      probe(std::min(std::max(predicted, kTight * k.hi * 1.001), k.lo / kTight * 0.999));
+      continue;
+    }
+    // When the model puts the root within 2% of the last probe, the probe 2% across closes the
+    // bracket if the model is right (and shrinks it by 2% if not: then the next probe is held
+    // inside the middle 80% of the bracket, so that the search never creeps).
+    const bool close_above = k.last_passed && predicted < k.lo / kTight;
+    const bool close_below = !k.last_passed && predicted > kTight * k.hi;
+    if (!tried_closing && (close_above || close_below))
+    {
+      tried_closing = true;
+      probe(close_above ? k.lo / kTight * 0.999 : kTight * k.hi * 1.001);
+      continue;
+    }
+    tried_closing = false;
+    const double r = close_above ? k.lo / kTight * 0.999 : close_below ? kTight * k.hi * 1.001 : predicted;
+    const double ratio = std::log(r / k.lo) / std::log(k.hi / k.lo);
+    probe(k.lo * std::pow(k.hi / k.lo, std::min(std::max(ratio, 0.1), 0.9)));
+  }
+}
+}  // namespace
+
 RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d& centre,
                            double floor, double cap, double guess, double tolerance, double L,
                            ErrorForm form, CandidateSource& source,
@@ -211,37 +287,14 @@ RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d&
   // near that radius the next one is placed to close the bracket from the other side (a pass just
   // below a fail, 2% apart) rather than creeping towards it from one side. The bracket keeps the
   // search safe where E is not monotone; the largest radius found with E <= tolerance is kept.
-  constexpr double kTight = 0.98;  // done when lo >= kTight × hi
-  double lo = -1.0, hi = -1.0, e_lo = 0.0, e_hi = 0.0;
-  bool last_passed = false;
+  Bracket k;
   // Evaluate r and move the matching end of the bracket; true when E(r) <= tolerance.
-  double prev_r = -1.0, prev_e = 0.0, last_r = -1.0, last_e = 0.0;  // the last two probes
   auto probe = [&](double r) {
     const RadiusEvaluation ev = eval(r);
-    prev_r = last_r;
-    prev_e = last_e;
-    last_r = r;
-    last_e = ev.error;
-    last_passed = ev.error <= tolerance;
-    if (last_passed)
-    {
+    k.record(r, ev.error, ev.error <= tolerance);
+    if (k.last_passed)
       accept(ev);
-      lo = r;
-      e_lo = ev.error;
-    }
-    else
-    {
-      hi = r;
-      e_hi = ev.error;
-    }
-    return last_passed;
-  };
-  // The local exponent of E ~ r^p from the last two probes (the slope in log-log), or `fallback`
-  // until there are two far enough apart.
-  auto localExponent = [&](double fallback) {
-    if (prev_r > 0.0 && prev_e > 0.0 && last_e > 0.0 && std::abs(std::log(last_r / prev_r)) > 0.01)
-      return std::min(std::max(std::log(last_e / prev_e) / std::log(last_r / prev_r), 0.5), 4.0);
-    return fallback;
+    return k.last_passed;
   };
 
   const double start = std::min(std::max(guess, floor), cap);
@@ -253,55 +306,26 @@ RadiusSolution solveRadius(const QuadricSamples& samples, const Eigen::Vector3d&
     // two probes, 2 until there are two), at most three times, then the floor. (On a noisy scan E
     // is far flatter than r^2 near the root; a probe at the floor would land far below it and
     // leave a wide bracket to refine.)
-    for (int step = 0; lo < 0.0; ++step)
+    for (int step = 0; k.lo < 0.0; ++step)
     {
-      double aim = last_r * std::pow(tolerance / last_e, 1.0 / localExponent(2.0)) * 0.99;
+      double aim = k.last_r * std::pow(tolerance / k.last_e, 1.0 / k.localExponent(2.0)) * 0.99;
       if (step >= 3 || !(aim > floor))
         aim = floor;
       probe(aim);
       if (aim == floor)
         break;
     }
-    if (lo < 0.0)
+    if (k.lo < 0.0)
       return sol;
   }
   // Grow until E exceeds the tolerance or the cap is reached: aim just below the radius where E
   // meets the tolerance, so that the next probe, just across it, closes the bracket.
-  while (hi < 0.0 && lo < cap)
+  while (k.hi < 0.0 && k.lo < cap)
   {
-    const double aim = e_lo > 0.0 ? lo * std::pow(tolerance / e_lo, 1.0 / localExponent(2.0)) * 0.995 : 2.0 * lo;
-    probe(std::min(std::max(lo / kTight * 0.999, std::min(aim, 3.0 * lo)), cap));
+    const double aim = k.e_lo > 0.0 ? k.lo * std::pow(tolerance / k.e_lo, 1.0 / k.localExponent(2.0)) * 0.995 : 2.0 * k.lo;
+    probe(std::min(std::max(k.lo / kTight * 0.999, std::min(aim, 3.0 * k.lo)), cap));
   }
-  // Refine between the last good and the first bad radius (to 2%).
-  bool tried_closing = false;  // the last probe was a closing one that did not close
-  for (int it = 0; hi > 0.0 && lo < kTight * hi && it < 10; ++it)
-  {
-    double theta = 0.5;
-    if (e_lo > 0.0 && e_hi > e_lo)
-      theta = std::log(tolerance / e_lo) / std::log(e_hi / e_lo);
-    const double predicted = lo * std::pow(hi / lo, std::min(std::max(theta, 0.0), 1.0));
-    if (hi * kTight * kTight <= lo)
-    {
-      // Any radius in [kTight hi, lo / kTight] closes the bracket, whether it passes or fails.
-      probe(std::min(std::max(predicted, kTight * hi * 1.001), lo / kTight * 0.999));
-      continue;
-    }
-    // When the model puts the root within 2% of the last probe, the probe 2% across closes the
-    // bracket if the model is right (and shrinks it by 2% if not: then the next probe is held
-    // inside the middle 80% of the bracket, so that the search never creeps).
-    const bool close_above = last_passed && predicted < lo / kTight;
-    const bool close_below = !last_passed && predicted > kTight * hi;
-    if (!tried_closing && (close_above || close_below))
-    {
-      tried_closing = true;
-      probe(close_above ? lo / kTight * 0.999 : kTight * hi * 1.001);
-      continue;
-    }
-    tried_closing = false;
-    const double r = close_above ? lo / kTight * 0.999 : close_below ? kTight * hi * 1.001 : predicted;
-    const double ratio = std::log(r / lo) / std::log(hi / lo);
-    probe(lo * std::pow(hi / lo, std::min(std::max(ratio, 0.1), 0.9)));
-  }
+  refineBracket(k, tolerance, probe);
   return sol;
 }
 

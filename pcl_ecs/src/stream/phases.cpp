@@ -249,41 +249,7 @@ void Runner::phaseC(int t)
       curvature[i] = 0.0;  // as computeMeanCurvature gives feature points
 
   // Points covered already: claims written by tiles of earlier colours (all finished).
-  const int colour = plan_.tree.tiles[static_cast<std::size_t>(t)].colour;
-  std::vector<std::uint8_t> is_source(plan_.tree.tiles.size(), 0);
-  for (std::size_t i = 0; i < n; ++i)
-    if (d.src_tile[i] < is_source.size())
-      is_source[d.src_tile[i]] = 1;
-    else
-      failDamaged("tile " + std::to_string(t) + "'s halo names tile " + std::to_string(d.src_tile[i]) +
-                  ", which does not exist");
-  std::vector<std::uint8_t> pre_covered(n, 0);
-  for (int s = 0; s < static_cast<int>(is_source.size()); ++s)
-  {
-    if (!is_source[static_cast<std::size_t>(s)])
-      continue;  // this tile holds no point of tile s
-    std::vector<std::uint8_t> covered(plan_.tree.tiles[static_cast<std::size_t>(s)].core_points, 0);
-    bool any = false;
-    const auto writers = claim_writers_.find(s);
-    if (writers == claim_writers_.end())
-      continue;
-    for (const int w : writers->second)
-    {
-      if (plan_.tree.tiles[static_cast<std::size_t>(w)].colour >= colour)
-        continue;
-      for (const std::uint32_t idx : readVector<std::uint32_t>(paths_.claims(s, w)))
-        if (idx < covered.size())
-        {
-          covered[idx] = 1;
-          any = true;
-        }
-    }
-    if (!any)
-      continue;
-    for (std::size_t i = 0; i < n; ++i)
-      if (static_cast<int>(d.src_tile[i]) == s && covered[d.src_index[i]])
-        pre_covered[i] = 1;
-  }
+  const std::vector<std::uint8_t> pre_covered = coveredByEarlierColours(t, d);
 
   BoxTreeSearch tree(/*sorted=*/false, tile_threads_);  // unsorted radius results; a tile is in Hilbert order
   tree.setInputCloud(d.cloud);
@@ -325,7 +291,66 @@ void Runner::phaseC(int t)
   stats[0] = static_cast<double>(features.size());
   stats[1] = static_cast<double>(cover.balls.size());
 
-  // Claims, by the tile that owns the point (this tile's own included).
+  writeClaims(t, d, cover);
+  if (params_.max_gap_factor > 0.0)
+    writeVectorAtomic(paths_.gapCandidates(t), gapCandidates(d, is_feature, normals, cover));
+  writeVectorAtomic(paths_.out(t), out);
+  writeVectorAtomic(paths_.doneC(t), stats);
+  // Nothing after the cover reads the tile's points or values (phase D reads the outputs).
+  std::vector<fs::path> done{paths_.attr(t), paths_.order(t), paths_.dens(t)};
+  for (int p = 0; p < plan_.parts; ++p)
+  {
+    done.push_back(paths_.core(t, p));
+    done.push_back(paths_.halo(t, p));
+  }
+  dropScratch(done);
+}
+
+std::vector<std::uint8_t> Runner::coveredByEarlierColours(int t, const TileData& d) const
+{
+  const std::size_t n = d.size();
+  const int colour = plan_.tree.tiles[static_cast<std::size_t>(t)].colour;
+  std::vector<std::uint8_t> is_source(plan_.tree.tiles.size(), 0);
+  for (std::size_t i = 0; i < n; ++i)
+    if (d.src_tile[i] < is_source.size())
+      is_source[d.src_tile[i]] = 1;
+    else
+      failDamaged("tile " + std::to_string(t) + "'s halo names tile " + std::to_string(d.src_tile[i]) +
+                  ", which does not exist");
+  std::vector<std::uint8_t> pre_covered(n, 0);
+  for (int s = 0; s < static_cast<int>(is_source.size()); ++s)
+  {
+    if (!is_source[static_cast<std::size_t>(s)])
+      continue;  // this tile holds no point of tile s
+    std::vector<std::uint8_t> covered(plan_.tree.tiles[static_cast<std::size_t>(s)].core_points, 0);
+    bool any = false;
+    const auto writers = claim_writers_.find(s);
+    if (writers == claim_writers_.end())
+      continue;
+    for (const int w : writers->second)
+    {
+      if (plan_.tree.tiles[static_cast<std::size_t>(w)].colour >= colour)
+        continue;
+      for (const std::uint32_t idx : readVector<std::uint32_t>(paths_.claims(s, w)))
+        if (idx < covered.size())
+        {
+          covered[idx] = 1;
+          any = true;
+        }
+    }
+    if (!any)
+      continue;
+    for (std::size_t i = 0; i < n; ++i)
+      if (static_cast<int>(d.src_tile[i]) == s && covered[d.src_index[i]])
+        pre_covered[i] = 1;
+  }
+
+  return pre_covered;
+}
+
+void Runner::writeClaims(int t, const TileData& d, const CoverOutput& cover) const
+{
+  const std::size_t n = d.size();
   std::vector<std::vector<std::uint32_t>> claims(plan_.tree.tiles.size());
   for (std::size_t i = 0; i < n; ++i)
     if (cover.owner[i] >= 0)
@@ -337,56 +362,50 @@ void Runner::phaseC(int t)
       radixSortStable(claims[s], [](std::uint32_t v) { return std::uint64_t{v}; });
       writeVectorAtomic(paths_.claims(static_cast<int>(s), t), claims[s]);
     }
-  // Gap candidates for phase D: the tile's own non-feature points farther than the gap from every
-  // output point this tile knows (its balls, the feature points of its core and halo). Points
-  // within it are within it of the final output too, so phase D reads only these.
-  if (params_.max_gap_factor > 0.0)
+}
+
+// Gap candidates for phase D: the tile's own non-feature points farther than the gap from every
+// output point this tile knows (its balls, the feature points of its core and halo). Points
+// within it are within it of the final output too, so phase D reads only these.
+std::vector<std::uint8_t> Runner::gapCandidates(const TileData& d, const std::vector<std::uint8_t>& is_feature,
+                                                const NormalList& normals, const CoverOutput& cover) const
+{
+  const std::size_t n = d.size();
+  const std::size_t step = header_.point_step;
+  const double gap = params_.max_gap_factor * cap_;
+  const double gap2 = gap * gap;
+  std::vector<Eigen::Vector3d> known, own;
+  std::vector<std::size_t> own_index;
+  for (std::size_t i = 0; i < n; ++i)
   {
-    const double gap = params_.max_gap_factor * cap_;
-    const double gap2 = gap * gap;
-    std::vector<Eigen::Vector3d> known, own;
-    std::vector<std::size_t> own_index;
-    for (std::size_t i = 0; i < n; ++i)
+    const Eigen::Vector3d q = (*d.cloud)[i].getVector3fMap().cast<double>();
+    if (is_feature[i])
+      known.push_back(q);
+    else if (d.is_core[i])
     {
-      const Eigen::Vector3d q = (*d.cloud)[i].getVector3fMap().cast<double>();
-      if (is_feature[i])
-        known.push_back(q);
-      else if (d.is_core[i])
-      {
-        // Within the gap of its own ball's representative: near an output point (as in memory,
-        // fillGaps); the others (covered by an earlier tile's ball, or far from their own) are
-        // looked up among all the known output points.
-        const int b = cover.owner[i];
-        if (b >= 0 && (cover.balls[static_cast<std::size_t>(b)].representative - q).squaredNorm() <= gap2)
-          continue;
-        own.push_back(q);
-        own_index.push_back(i);
-      }
+      // Within the gap of its own ball's representative: near an output point (as in memory,
+      // fillGaps); the others (covered by an earlier tile's ball, or far from their own) are
+      // looked up among all the known output points.
+      const int b = cover.owner[i];
+      if (b >= 0 && (cover.balls[static_cast<std::size_t>(b)].representative - q).squaredNorm() <= gap2)
+        continue;
+      own.push_back(q);
+      own_index.push_back(i);
     }
-    for (const CoverBall& b : cover.balls)
-      known.push_back(b.representative);
-    const std::vector<std::uint8_t> far = farFrom(known, own, gap, tile_threads_);
-    std::vector<std::uint8_t> candidates;
-    for (std::size_t k = 0; k < own.size(); ++k)
-      if (far[k])
-      {
-        const std::size_t i = own_index[k];
-        candidates.insert(candidates.end(), d.records.begin() + static_cast<std::ptrdiff_t>(i * step),
-                          d.records.begin() + static_cast<std::ptrdiff_t>((i + 1) * step));
-        setRecordNormal(candidates.data() + candidates.size() - step, normals[i], own[k]);
-      }
-    writeVectorAtomic(paths_.gapCandidates(t), candidates);
   }
-  writeVectorAtomic(paths_.out(t), out);
-  writeVectorAtomic(paths_.doneC(t), stats);
-  // Nothing after the cover reads the tile's points or values (phase D reads the outputs).
-  std::vector<fs::path> done{paths_.attr(t), paths_.order(t), paths_.dens(t)};
-  for (int p = 0; p < plan_.parts; ++p)
-  {
-    done.push_back(paths_.core(t, p));
-    done.push_back(paths_.halo(t, p));
-  }
-  dropScratch(done);
+  for (const CoverBall& b : cover.balls)
+    known.push_back(b.representative);
+  const std::vector<std::uint8_t> far = farFrom(known, own, gap, tile_threads_);
+  std::vector<std::uint8_t> candidates;
+  for (std::size_t k = 0; k < own.size(); ++k)
+    if (far[k])
+    {
+      const std::size_t i = own_index[k];
+      candidates.insert(candidates.end(), d.records.begin() + static_cast<std::ptrdiff_t>(i * step),
+                        d.records.begin() + static_cast<std::ptrdiff_t>((i + 1) * step));
+      setRecordNormal(candidates.data() + candidates.size() - step, normals[i], own[k]);
+    }
+  return candidates;
 }
 
 void Runner::setRecordNormal(std::uint8_t* rec, Eigen::Vector3f nrm, const Eigen::Vector3d& at) const

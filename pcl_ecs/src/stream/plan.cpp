@@ -8,6 +8,52 @@ namespace stream
 namespace detail
 {
 
+namespace
+{
+/// A sample of the tile tree with its index, moved around by the selections (sorting the points
+/// themselves rather than indices to them: no scattered reads).
+struct TreeItem
+{
+  std::array<double, 2> p;
+  std::uint32_t id;
+};
+
+/// Where to split the part [begin, end) of `items` across `axis` into the fewest tiles that respect
+/// the bounds, as evenly as possible (a tile count m splits m / 2 : m - m / 2): the items below
+/// `value` are moved before `mid`. False when the part cannot be split (one value on the axis).
+bool choosePartSplit(std::vector<TreeItem>& items, std::size_t begin, std::size_t end, int axis, std::size_t load,
+                     std::size_t max_core, std::size_t max_load, double& value, std::size_t& mid)
+{
+  const double inf = std::numeric_limits<double>::infinity();
+  const std::size_t count = end - begin;
+  const std::size_t a = static_cast<std::size_t>(axis);
+  auto first = items.begin() + static_cast<std::ptrdiff_t>(begin);
+  auto last = items.begin() + static_cast<std::ptrdiff_t>(end);
+  const std::size_t m = std::max<std::size_t>({2, (count + max_core - 1) / max_core, (load + max_load - 1) / max_load});
+  const std::size_t k = begin + count * (m / 2) / m;
+  // The sample at rank k (by coordinate, then index: a total order, so the same sample
+  // whatever the algorithm); a selection, not a sort: linear in the part's size.
+  std::nth_element(first, items.begin() + static_cast<std::ptrdiff_t>(k), last, [&](const TreeItem& x, const TreeItem& y) {
+    return x.p[a] < y.p[a] || (x.p[a] == y.p[a] && x.id < y.id);
+  });
+  value = items[k].p[a];
+  // Everything below `value` goes left.
+  mid = static_cast<std::size_t>(std::partition(first, last, [&](const TreeItem& x) { return x.p[a] < value; }) -
+                                 items.begin());
+  if (mid != begin)
+    return true;
+  // The lower part is one value: split just above it instead.
+  mid = static_cast<std::size_t>(std::partition(first, last, [&](const TreeItem& x) { return x.p[a] <= value; }) -
+                                 items.begin());
+  if (mid == end)
+    return false;
+  value = inf;
+  for (std::size_t i = mid; i < end; ++i)
+    value = std::min(value, items[i].p[a]);
+  return true;
+}
+}  // namespace
+
 /// Recursive splits of the sample until every tile holds at most `max_core` samples and its load,
 /// its samples plus those within `halo` of its rectangle, is at most `max_load` (halo 0: its own
 /// samples only). A part is split across its longer side at the m/2 : m - m/2 quantile of its own
@@ -20,14 +66,7 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
   TileTree tree;
   const double inf = std::numeric_limits<double>::infinity();
   const double h2 = halo * halo;
-  // The samples with their index, moved around by the selections below (sorting the points
-  // themselves rather than indices to them: no scattered reads).
-  struct Item
-  {
-    std::array<double, 2> p;
-    std::uint32_t id;
-  };
-  std::vector<Item> items(sample.size());
+  std::vector<TreeItem> items(sample.size());
   for (std::size_t i = 0; i < sample.size(); ++i)
     items[i] = {sample[i], static_cast<std::uint32_t>(i)};
   struct Job
@@ -79,43 +118,10 @@ TileTree buildTileTree(const std::vector<std::array<double, 2>>& sample, std::si
     // then mostly halo, which smaller parts would not shrink (the halo's disc stays), and
     // splitting on would only make tiles of single points.
     const bool too_loaded = load > max_load && side > 0.25 * halo;
-    bool split = (count > max_core || too_loaded) && count >= 2 && side > 0.0;
     double value = 0.0;
     std::size_t mid = 0;
-    if (split)
-    {
-      const std::size_t a = static_cast<std::size_t>(axis);
-      auto first = items.begin() + static_cast<std::ptrdiff_t>(j.begin);
-      auto last = items.begin() + static_cast<std::ptrdiff_t>(j.end);
-      // Split into the fewest tiles that respect the bound, as evenly as possible: a tile count m
-      // splits m / 2 : m - m / 2 (not always in halves, which would leave tiles at half the bound).
-      const std::size_t m = std::max<std::size_t>(
-          {2, (count + max_core - 1) / max_core, (load + max_load - 1) / max_load});
-      const std::size_t k = j.begin + count * (m / 2) / m;
-      // The sample at rank k (by coordinate, then index: a total order, so the same sample
-      // whatever the algorithm); a selection, not a sort: linear in the part's size.
-      std::nth_element(first, items.begin() + static_cast<std::ptrdiff_t>(k), last, [&](const Item& x, const Item& y) {
-        return x.p[a] < y.p[a] || (x.p[a] == y.p[a] && x.id < y.id);
-      });
-      value = items[k].p[a];
-      // Everything below `value` goes left.
-      mid = static_cast<std::size_t>(
-          std::partition(first, last, [&](const Item& x) { return x.p[a] < value; }) - items.begin());
-      if (mid == j.begin)
-      {
-        // The lower part is one value: split just above it instead.
-        mid = static_cast<std::size_t>(
-            std::partition(first, last, [&](const Item& x) { return x.p[a] <= value; }) - items.begin());
-        if (mid == j.end)
-          split = false;
-        else
-        {
-          value = inf;
-          for (std::size_t i = mid; i < j.end; ++i)
-            value = std::min(value, items[i].p[a]);
-        }
-      }
-    }
+    const bool split = (count > max_core || too_loaded) && count >= 2 && side > 0.0 &&
+                       choosePartSplit(items, j.begin, j.end, axis, load, max_core, max_load, value, mid);
     KdNode& node = tree.nodes[static_cast<std::size_t>(j.node)];
     if (!split)
     {

@@ -22,14 +22,50 @@ void Runner::scanAndPlan(io::RecordSource& reader)
 {
   const auto t0 = Clock::now();
   header_ = reader.header();
-  const io::XyzAccess xyz(header_);
-  const std::size_t step = header_.point_step;
   // The sample fits half of what the limit leaves beside the process itself.
   const std::size_t sample_target = std::max<std::size_t>(
       kMinSample, std::min<std::size_t>(kSampleTarget, static_cast<std::size_t>(0.5 * usableBytes() / kPlanBytesPerSample)));
-  const double fraction = std::min(1.0, static_cast<double>(sample_target) / std::max<double>(1.0, static_cast<double>(header_.points)));
-  std::vector<Eigen::Vector3d> sample;
-  sample.reserve(std::min<std::uint64_t>(header_.points, sample_target + sample_target / 10));
+  PlanningSample sample;
+  sample.fraction = std::min(1.0, static_cast<double>(sample_target) / std::max<double>(1.0, static_cast<double>(header_.points)));
+  sample.points.reserve(std::min<std::uint64_t>(header_.points, sample_target + sample_target / 10));
+  const std::uint64_t finite = scanInput(reader, sample);
+  plan_.input_points = header_.points;
+  plan_.finite_points = finite;
+  plan_.lo = sample.lo;
+  plan_.hi = sample.hi;
+  const int k = params_.k_neighbors;
+  if (finite <= static_cast<std::uint64_t>(k) || sample.points.size() <= static_cast<std::size_t>(k))
+  {
+    std::ostringstream os;
+    os << input_ << ": only " << finite << " finite points; the neighbourhood size K = " << k << " needs at least "
+       << k + 1;
+    failRun(os.str());
+  }
+  // The tiles live in the plane of the two longest axes.
+  const Eigen::Vector3d ext = sample.hi - sample.lo;
+  int order[3] = {0, 1, 2};
+  std::sort(order, order + 3, [&](int a, int b) { return ext[a] > ext[b] || (ext[a] == ext[b] && a < b); });
+  plan_.axis_u = std::min(order[0], order[1]);
+  plan_.axis_v = std::max(order[0], order[1]);
+  if (!(ext[order[1]] > 0.0))
+    failRun(input_ + ": all points lie on one line: there is no surface to simplify");
+  if (!(ext.maxCoeff() > 1e-30))
+    failRun(input_ + ": the cloud's extent (" + std::to_string(ext.maxCoeff()) + ") is too small for float precision");
+  plan_.halo = estimateHalo(sample);
+  planTiles(sample);
+  summary_.stage_seconds[0] = secondsSince(t0);
+  std::ostringstream os;
+  os << "plan: " << finite << " finite points, " << plan_.tree.tiles.size() << " tile(s) of at most "
+     << plan_.tile_point_budget << " points with halo " << plan_.halo << " (scan " << std::fixed
+     << std::setprecision(1) << summary_.stage_seconds[0] << " s)";
+  report(os.str());
+}
+
+std::uint64_t Runner::scanInput(io::RecordSource& reader, PlanningSample& sample)
+{
+  const io::XyzAccess xyz(header_);
+  const std::size_t step = header_.point_step;
+  const double fraction = sample.fraction;
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
   std::vector<std::uint8_t> chunk;
   // A binary input is read again by the split, straight from its records (two reads of the input
@@ -72,7 +108,7 @@ void Runner::scanAndPlan(io::RecordSource& reader)
       lo = lo.cwiseMin(p);
       hi = hi.cwiseMax(p);
       if (inSample(gid, fraction))
-        sample.push_back(p);
+        sample.points.push_back(p);
     }
     if (copy_points)
     {
@@ -94,29 +130,17 @@ void Runner::scanAndPlan(io::RecordSource& reader)
       failRun("cannot write " + copy_tmp + " (disk full?)");
     fs::rename(copy_tmp, paths_.points());
   }
-  plan_.input_points = header_.points;
-  plan_.finite_points = finite;
-  plan_.lo = lo;
-  plan_.hi = hi;
-  const int k = params_.k_neighbors;
-  if (finite <= static_cast<std::uint64_t>(k) || sample.size() <= static_cast<std::size_t>(k))
-  {
-    std::ostringstream os;
-    os << input_ << ": only " << finite << " finite points; the neighbourhood size K = " << k << " needs at least "
-       << k + 1;
-    failRun(os.str());
-  }
-  // The tiles live in the plane of the two longest axes.
-  const Eigen::Vector3d ext = hi - lo;
-  int order[3] = {0, 1, 2};
-  std::sort(order, order + 3, [&](int a, int b) { return ext[a] > ext[b] || (ext[a] == ext[b] && a < b); });
-  plan_.axis_u = std::min(order[0], order[1]);
-  plan_.axis_v = std::max(order[0], order[1]);
-  if (!(ext[order[1]] > 0.0))
-    failRun(input_ + ": all points lie on one line: there is no surface to simplify");
-  if (!(ext.maxCoeff() > 1e-30))
-    failRun(input_ + ": the cloud's extent (" + std::to_string(ext.maxCoeff()) + ") is too small for float precision");
+  sample.lo = lo;
+  sample.hi = hi;
+  return finite;
+}
 
+double Runner::estimateHalo(const PlanningSample& planning)
+{
+  const std::vector<Eigen::Vector3d>& sample = planning.points;
+  const double fraction = planning.fraction;
+  const Eigen::Vector3d lo = planning.lo, hi = planning.hi;
+  const int k = params_.k_neighbors;
   // Neighbourhood size from the sample: the j-th sample neighbour at distance r_j means the K-th
   // neighbour of the full cloud at about r_j sqrt(K f / j) (a surface: counts grow with r²).
   const int threads = resolveThreads(params_.threads);
@@ -194,8 +218,14 @@ void Runner::scanAndPlan(io::RecordSource& reader)
   const double cap_estimate = params_.radius_cap_factor * 0.75 * mean_rk;
   // A ball (radius <= cap) centred in a tile reaches cap into the halo; the values of its members
   // need their neighbours' neighbours (about 3 r_K further) to be exact.
-  plan_.halo = 1.25 * cap_estimate + 3.0 * rk_high;
+  return 1.25 * cap_estimate + 3.0 * rk_high;
+}
 
+void Runner::planTiles(const PlanningSample& planning)
+{
+  const std::vector<Eigen::Vector3d>& sample = planning.points;
+  const double fraction = planning.fraction;
+  const std::size_t step = header_.point_step;
   // Tile size: a tile and its halo must fit the budget of one of kConcurrentTiles workers.
   const double budget = 0.7 * usableBytes() / kConcurrentTiles;
   plan_.tile_point_budget = options_.max_tile_points > 0
@@ -243,18 +273,31 @@ void Runner::scanAndPlan(io::RecordSource& reader)
                      ", from its spacing) puts about " + std::to_string(static_cast<std::uint64_t>(worst)) +
                      " points in a tile; use at least " + suggestedLimit(limit));
   }
-  summary_.stage_seconds[0] = secondsSince(t0);
-  std::ostringstream os;
-  os << "plan: " << finite << " finite points, " << plan_.tree.tiles.size() << " tile(s) of at most "
-     << plan_.tile_point_budget << " points with halo " << plan_.halo << " (scan " << std::fixed
-     << std::setprecision(1) << summary_.stage_seconds[0] << " s)";
-  report(os.str());
 }
+
+/// A buffered scratch file of the split (one per tile core and halo, per part).
+struct TileSink
+{
+  std::vector<char> buf;
+  std::size_t used = 0;
+  std::ofstream file;
+  void put(const void* data, std::size_t bytes)
+  {
+    if (used + bytes > buf.size())
+      flush();
+    std::memcpy(buf.data() + used, data, bytes);
+    used += bytes;
+  }
+  void flush()
+  {
+    file.write(buf.data(), static_cast<std::streamsize>(used));
+    used = 0;
+  }
+};
 
 void Runner::split()
 {
   const auto t0 = Clock::now();
-  const io::XyzAccess xyz(header_);
   const std::size_t step = header_.point_step;
   const std::size_t tiles = plan_.tree.tiles.size();
   // Where the finite points are: a binary input's own records (input index = record number,
@@ -300,114 +343,10 @@ void Runner::split()
   const std::size_t buffer = std::max<std::size_t>(
       4096, std::min<std::size_t>(1 << 20, static_cast<std::size_t>(buffers) / (2 * tiles * static_cast<std::size_t>(parts))));
   std::atomic<std::uint64_t> done{0};
-  auto run = [&](int part) {
-    const auto p = static_cast<std::size_t>(part);
-    struct Sink
-    {
-      std::vector<char> buf;
-      std::size_t used = 0;
-      std::ofstream file;
-      void put(const void* data, std::size_t bytes)
-      {
-        if (used + bytes > buf.size())
-          flush();
-        std::memcpy(buf.data() + used, data, bytes);
-        used += bytes;
-      }
-      void flush()
-      {
-        file.write(buf.data(), static_cast<std::streamsize>(used));
-        used = 0;
-      }
-    };
-    std::vector<Sink> core(tiles), halo(tiles);
-    for (std::size_t t = 0; t < tiles; ++t)
-    {
-      core[t].buf.resize(buffer);
-      halo[t].buf.resize(buffer);
-      core[t].file.rdbuf()->pubsetbuf(nullptr, 0);  // the sink buffers: no second buffer per file
-      halo[t].file.rdbuf()->pubsetbuf(nullptr, 0);
-      core[t].file.open(paths_.core(static_cast<int>(t), part).string() + ".tmp", std::ios::binary | std::ios::trunc);
-      halo[t].file.open(paths_.halo(static_cast<int>(t), part).string() + ".tmp", std::ios::binary | std::ios::trunc);
-      if (!core[t].file || !halo[t].file)
-        failRun("cannot create the scratch files in " + (paths_.root / "tiles").string());
-    }
-    const std::uint64_t first = records * p / static_cast<std::uint64_t>(parts);
-    const std::uint64_t last = records * (p + 1) / static_cast<std::uint64_t>(parts);
-    std::ifstream in(source, std::ios::binary);
-    if (!in || !in.seekg(static_cast<std::streamoff>(offset + first * record)))
-      failRun("cannot read " + source.string());
-    std::vector<std::uint8_t> chunk(kChunk * record);
-    std::vector<int> near;
-    std::uint64_t finite = 0;
-    std::vector<std::uint64_t> own_count(tiles, 0), halo_count(tiles, 0);  // this part's
-    for (std::uint64_t at = first; at < last;)
-    {
-      const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(kChunk, last - at));
-      in.read(reinterpret_cast<char*>(chunk.data()), static_cast<std::streamsize>(n * record));
-      if (static_cast<std::size_t>(in.gcount()) != n * record)
-        failRun(source.string() + (from_input ? " changed while it was being read (it ended early)" : " is truncated"));
-      for (std::size_t i = 0; i < n; ++i)
-      {
-        const std::uint8_t* rec = chunk.data() + i * record;
-        std::uint64_t gid = at + i;
-        if (!from_input)
-        {
-          std::memcpy(&gid, rec, 8);
-          rec += 8;
-        }
-        double c[3];
-        xyz.get(rec, c[0], c[1], c[2]);
-        if (from_input && !(std::isfinite(c[0]) && std::isfinite(c[1]) && std::isfinite(c[2])))
-          continue;  // the copy of pass 1 holds finite points only
-        ++finite;
-        const std::array<double, 2> pt{{c[plan_.axis_u], c[plan_.axis_v]}};
-        near.clear();
-        const int own = plan_.tree.locateAndNear(pt, plan_.halo, near);
-        std::uint64_t& count = own_count[static_cast<std::size_t>(own)];
-        // The index among the tile's own points found by this part; loadTile adds the earlier parts'.
-        const std::uint32_t src[2] = {static_cast<std::uint32_t>(own), static_cast<std::uint32_t>(count)};
-        if (++count >= std::numeric_limits<std::uint32_t>::max())
-          failRun("a tile holds more than 4 billion points: raise --memory-limit less or split the input");
-        core[static_cast<std::size_t>(own)].put(&gid, 8);
-        core[static_cast<std::size_t>(own)].put(rec, step);
-        for (int t : near)
-          if (t != own)
-          {
-            Sink& s = halo[static_cast<std::size_t>(t)];
-            ++halo_count[static_cast<std::size_t>(t)];
-            s.put(&gid, 8);
-            s.put(src, 8);
-            s.put(rec, step);
-          }
-      }
-      at += n;
-      const std::uint64_t before = done.fetch_add(n);
-      if ((before >> 22) != ((before + n) >> 22))
-      {
-        const double s = secondsSince(t0);
-        std::ostringstream os;
-        os << "split: " << before + n << " / " << records << " points, " << std::fixed << std::setprecision(2)
-           << (s > 0 ? static_cast<double>(before + n) / s / 1e6 : 0.0) << " M points/s";
-        report(os.str());
-      }
-    }
-    part_finite[p] = finite;
-    for (std::size_t t = 0; t < tiles; ++t)
-    {
-      plan_.part_core[t][p] = own_count[t];
-      part_halo[t][p] = halo_count[t];
-      core[t].flush();
-      halo[t].flush();
-      core[t].file.close();
-      halo[t].file.close();
-      if (!core[t].file || !halo[t].file)
-        failRun("cannot write the scratch files in " + (paths_.root / "tiles").string() + " (disk full?)");
-    }
-  };
+  const SplitJob job{source, from_input, record, records, offset, parts, buffer, t0, &done, &part_halo, &part_finite};
   std::vector<int> all(static_cast<std::size_t>(parts));
   std::iota(all.begin(), all.end(), 0);
-  forEachTile(all, parts, run);
+  forEachTile(all, parts, [&](int part) { splitPart(job, part); });
   std::uint64_t finite = 0;
   for (const std::uint64_t f : part_finite)
     finite += f;
@@ -435,6 +374,160 @@ void Runner::split()
   std::error_code ec;
   fs::remove(paths_.points(), ec);  // the tiles hold every point now
   summary_.stage_seconds[1] = secondsSince(t0);
+}
+
+void Runner::splitPart(const SplitJob& job, int part)
+{
+  const io::XyzAccess xyz(header_);
+  const std::size_t step = header_.point_step;
+  const std::size_t tiles = plan_.tree.tiles.size();
+  const auto p = static_cast<std::size_t>(part);
+  std::vector<TileSink> core(tiles), halo(tiles);
+  for (std::size_t t = 0; t < tiles; ++t)
+  {
+    core[t].buf.resize(job.buffer);
+    halo[t].buf.resize(job.buffer);
+    core[t].file.rdbuf()->pubsetbuf(nullptr, 0);  // the sink buffers: no second buffer per file
+    halo[t].file.rdbuf()->pubsetbuf(nullptr, 0);
+    core[t].file.open(paths_.core(static_cast<int>(t), part).string() + ".tmp", std::ios::binary | std::ios::trunc);
+    halo[t].file.open(paths_.halo(static_cast<int>(t), part).string() + ".tmp", std::ios::binary | std::ios::trunc);
+    if (!core[t].file || !halo[t].file)
+      failRun("cannot create the scratch files in " + (paths_.root / "tiles").string());
+  }
+  const std::uint64_t first = job.records * p / static_cast<std::uint64_t>(job.parts);
+  const std::uint64_t last = job.records * (p + 1) / static_cast<std::uint64_t>(job.parts);
+  std::ifstream in(job.source, std::ios::binary);
+  if (!in || !in.seekg(static_cast<std::streamoff>(job.offset + first * job.record)))
+    failRun("cannot read " + job.source.string());
+  std::vector<std::uint8_t> chunk(kChunk * job.record);
+  std::vector<int> near;
+  std::uint64_t finite = 0;
+  std::vector<std::uint64_t> own_count(tiles, 0), halo_count(tiles, 0);  // this part's
+  for (std::uint64_t at = first; at < last;)
+  {
+    const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(kChunk, last - at));
+    in.read(reinterpret_cast<char*>(chunk.data()), static_cast<std::streamsize>(n * job.record));
+    if (static_cast<std::size_t>(in.gcount()) != n * job.record)
+      failRun(job.source.string() + (job.from_input ? " changed while it was being read (it ended early)" : " is truncated"));
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      const std::uint8_t* rec = chunk.data() + i * job.record;
+      std::uint64_t gid = at + i;
+      if (!job.from_input)
+      {
+        std::memcpy(&gid, rec, 8);
+        rec += 8;
+      }
+      double c[3];
+      xyz.get(rec, c[0], c[1], c[2]);
+      if (job.from_input && !(std::isfinite(c[0]) && std::isfinite(c[1]) && std::isfinite(c[2])))
+        continue;  // the copy of pass 1 holds finite points only
+      ++finite;
+      const std::array<double, 2> pt{{c[plan_.axis_u], c[plan_.axis_v]}};
+      near.clear();
+      const int own = plan_.tree.locateAndNear(pt, plan_.halo, near);
+      std::uint64_t& count = own_count[static_cast<std::size_t>(own)];
+      // The index among the tile's own points found by this part; loadTile adds the earlier parts'.
+      const std::uint32_t src[2] = {static_cast<std::uint32_t>(own), static_cast<std::uint32_t>(count)};
+      if (++count >= std::numeric_limits<std::uint32_t>::max())
+        failRun("a tile holds more than 4 billion points: raise --memory-limit less or split the input");
+      core[static_cast<std::size_t>(own)].put(&gid, 8);
+      core[static_cast<std::size_t>(own)].put(rec, step);
+      for (int t : near)
+        if (t != own)
+        {
+          TileSink& s = halo[static_cast<std::size_t>(t)];
+          ++halo_count[static_cast<std::size_t>(t)];
+          s.put(&gid, 8);
+          s.put(src, 8);
+          s.put(rec, step);
+        }
+    }
+    at += n;
+    const std::uint64_t before = job.done->fetch_add(n);
+    if ((before >> 22) != ((before + n) >> 22))
+    {
+      const double s = secondsSince(job.t0);
+      std::ostringstream os;
+      os << "split: " << before + n << " / " << job.records << " points, " << std::fixed << std::setprecision(2)
+         << (s > 0 ? static_cast<double>(before + n) / s / 1e6 : 0.0) << " M points/s";
+      report(os.str());
+    }
+  }
+  (*job.part_finite)[p] = finite;
+  for (std::size_t t = 0; t < tiles; ++t)
+  {
+    plan_.part_core[t][p] = own_count[t];
+    (*job.part_halo)[t][p] = halo_count[t];
+    core[t].flush();
+    halo[t].flush();
+    core[t].file.close();
+    halo[t].file.close();
+    if (!core[t].file || !halo[t].file)
+      failRun("cannot write the scratch files in " + (paths_.root / "tiles").string() + " (disk full?)");
+  }
+}
+
+std::vector<std::uint32_t> Runner::savedOrder(int t, std::size_t n) const
+{
+  // Saved as: the tile's point count, the count loaded (the others coincide with one), the order.
+  std::vector<std::uint32_t> order = readVector<std::uint32_t>(paths_.order(t));
+  bool valid = order.size() >= 2 && order[0] == n && order[1] == order.size() - 2 && order[1] <= n;
+  if (valid)
+    order.erase(order.begin(), order.begin() + 2);
+  std::vector<std::uint8_t> seen(n, 0);
+  for (std::size_t o = 0; valid && o < order.size(); ++o)
+  {
+    valid = order[o] < n && !seen[order[o]];
+    if (valid)
+      seen[order[o]] = 1;
+  }
+  if (!valid)
+    failDamaged("the saved point order of tile " + std::to_string(t) + " does not match its points");
+  return order;
+}
+
+std::vector<std::uint32_t> Runner::hilbertOrder(const std::vector<std::uint64_t>& gids,
+                                                const std::vector<Eigen::Vector3d>& pos) const
+{
+  // The (code, input index) pairs are distinct (input indices are): one order.
+  struct Key
+  {
+    std::uint64_t code, gid;
+    std::uint32_t at;
+  };
+  const std::size_t n = gids.size();
+  std::vector<Key> keys(n);
+  for (std::size_t i = 0; i < n; ++i)
+    keys[i] = {0, gids[i], static_cast<std::uint32_t>(i)};
+  {
+    std::vector<std::uint64_t> codes(n);
+    // On the grid the in-memory filter orders the whole cloud on: one tile gives its run exactly.
+    spatialCodes(pos.data(), n, plan_.lo, plan_.hi, codes.data(),
+                 spatialOrderBits(static_cast<std::size_t>(plan_.finite_points)));  // several points per instruction
+    for (std::size_t i = 0; i < n; ++i)
+      keys[i].code = codes[i];
+  }
+  radixSortThenTies(keys, [](const Key& k) { return k.code; },
+                    [](const Key& a, const Key& b) { return a.gid < b.gid; });
+  // Coincident points (to the rounding of the input's coordinates), as in the filter: one of each
+  // group stands for it, the others are not loaded. A group has one position, so every tile that holds it, as
+  // its own or in its halo, holds all of it and keeps the same point.
+  std::vector<int> ids(n);
+  std::vector<std::uint64_t> sorted_codes(n);
+  for (std::size_t o = 0; o < n; ++o)
+  {
+    ids[o] = static_cast<int>(o);
+    sorted_codes[o] = keys[o].code;
+  }
+  const int fx = header_.fieldIndex("x");
+  const bool float_xyz = fx >= 0 && header_.fields[static_cast<std::size_t>(fx)].datatype != pcl::PCLPointField::FLOAT64;
+  removeCoincident(ids, sorted_codes, [&](int o) { return pos[keys[static_cast<std::size_t>(o)].at]; },
+                   coincidenceTolerance(plan_.lo, plan_.hi, float_xyz, plan_.finite_points));
+  std::vector<std::uint32_t> order(ids.size());
+  for (std::size_t o = 0; o < ids.size(); ++o)
+    order[o] = keys[static_cast<std::size_t>(ids[o])].at;
+  return order;
 }
 
 TileData Runner::loadTile(int t) const
@@ -481,66 +574,17 @@ TileData Runner::loadTile(int t) const
   // whichever tile loads it, so neighbour ties break the same way everywhere. Phase A saves the
   // order it found; later loads of the tile read it instead of sorting again.
   if (fs::exists(paths_.order(t)))
-  {
-    // Saved as: the tile's point count, the count loaded (the others coincide with one), the order.
-    d.order = readVector<std::uint32_t>(paths_.order(t));
-    bool valid = d.order.size() >= 2 && d.order[0] == n && d.order[1] == d.order.size() - 2 && d.order[1] <= n;
-    if (valid)
-      d.order.erase(d.order.begin(), d.order.begin() + 2);
-    std::vector<std::uint8_t> seen(n, 0);
-    for (std::size_t o = 0; valid && o < d.order.size(); ++o)
-    {
-      valid = d.order[o] < n && !seen[d.order[o]];
-      if (valid)
-        seen[d.order[o]] = 1;
-    }
-    if (!valid)
-      failDamaged("the saved point order of tile " + std::to_string(t) + " does not match its points");
-  }
+    d.order = savedOrder(t, n);
   else
   {
-    // The (code, input index) pairs are distinct (input indices are): one order.
-    struct Key
-    {
-      std::uint64_t code, gid;
-      std::uint32_t at;
-    };
-    std::vector<Key> keys(n);
+    std::vector<std::uint64_t> gids(n);
     std::vector<Eigen::Vector3d> pos(n);  // by file order
     for (std::size_t i = 0; i < n; ++i)
     {
-      std::uint64_t gid;
-      std::memcpy(&gid, at(i), 8);
+      std::memcpy(&gids[i], at(i), 8);
       pos[i] = position(i);
-      keys[i] = {0, gid, static_cast<std::uint32_t>(i)};
     }
-    {
-      std::vector<std::uint64_t> codes(n);
-      // On the grid the in-memory filter orders the whole cloud on: one tile gives its run exactly.
-      spatialCodes(pos.data(), n, plan_.lo, plan_.hi, codes.data(),
-                   spatialOrderBits(static_cast<std::size_t>(plan_.finite_points)));  // several points per instruction
-      for (std::size_t i = 0; i < n; ++i)
-        keys[i].code = codes[i];
-    }
-    radixSortThenTies(keys, [](const Key& k) { return k.code; },
-                      [](const Key& a, const Key& b) { return a.gid < b.gid; });
-    // Coincident points (to the rounding of the input's coordinates), as in the filter: one of each
-    // group stands for it, the others are not loaded. A group has one position, so every tile that holds it, as
-    // its own or in its halo, holds all of it and keeps the same point.
-    std::vector<int> ids(n);
-    std::vector<std::uint64_t> sorted_codes(n);
-    for (std::size_t o = 0; o < n; ++o)
-    {
-      ids[o] = static_cast<int>(o);
-      sorted_codes[o] = keys[o].code;
-    }
-    const int fx = header_.fieldIndex("x");
-    const bool float_xyz = fx >= 0 && header_.fields[static_cast<std::size_t>(fx)].datatype != pcl::PCLPointField::FLOAT64;
-    removeCoincident(ids, sorted_codes, [&](int o) { return pos[keys[static_cast<std::size_t>(o)].at]; },
-                     coincidenceTolerance(plan_.lo, plan_.hi, float_xyz, plan_.finite_points));
-    d.order.resize(ids.size());
-    for (std::size_t o = 0; o < ids.size(); ++o)
-      d.order[o] = keys[static_cast<std::size_t>(ids[o])].at;
+    d.order = hilbertOrder(gids, pos);
   }
   for (const std::uint32_t i : d.order)
     d.merged_core += i < nc ? 1 : 0;

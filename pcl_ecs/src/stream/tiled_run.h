@@ -418,14 +418,59 @@ private:
     return std::to_string((needed + kStep + kStep - 1) / kStep * (kStep >> 20)) + "M";
   }
   void scanAndPlan(io::RecordSource& reader);
+  /// The planning sample: a fixed pseudo-random fraction of the finite points, and their bounds.
+  struct PlanningSample
+  {
+    std::vector<Eigen::Vector3d> points;
+    double fraction = 1.0;
+    Eigen::Vector3d lo, hi;
+  };
+  /// Reads the input once: bounds, the sample, and (an input read only once) the finite points
+  /// copied to scratch. Returns the number of finite points.
+  std::uint64_t scanInput(io::RecordSource& reader, PlanningSample& sample);
+  /// The halo width from the sample's neighbour distances (world units).
+  double estimateHalo(const PlanningSample& sample);
+  /// The tile budget and the tile tree; refuses a limit the run cannot keep.
+  void planTiles(const PlanningSample& sample);
   /// A binary PCD in a regular file is read again by the split; anything else is copied to scratch
   /// once.
   bool readTwice() const { return records_in_input_; }
   void split();
+  /// What every part of the split shares (split(), splitPart()).
+  struct SplitJob
+  {
+    fs::path source;            ///< the input (read twice) or the scan's copy of its finite points
+    bool from_input;
+    std::size_t record;         ///< bytes a record in `source`
+    std::uint64_t records;
+    std::uint64_t offset;       ///< of the first record
+    int parts;
+    std::size_t buffer;         ///< bytes of each tile file's buffer
+    Clock::time_point t0;
+    std::atomic<std::uint64_t>* done;                       ///< records read by every part
+    std::vector<std::vector<std::uint64_t>>* part_halo;     ///< [tile][part] halo points
+    std::vector<std::uint64_t>* part_finite;                ///< [part] finite points
+  };
+  /// One part of the split: a run of consecutive records to its own file per tile core and halo.
+  void splitPart(const SplitJob& job, int part);
   TileData loadTile(int t) const;
+  /// The point order phase A saved for tile t (n points in its files), checked.
+  std::vector<std::uint32_t> savedOrder(int t, std::size_t n) const;
+  /// The order of a tile's points (input indices `gids`, positions `pos`, both in file order):
+  /// by Hilbert code in the global box, ties by input index, coincident points left out.
+  std::vector<std::uint32_t> hilbertOrder(const std::vector<std::uint64_t>& gids,
+                                          const std::vector<Eigen::Vector3d>& pos) const;
   void phaseA(int t);
   void phaseB(int t);
   void phaseC(int t);
+  /// Per point of tile t: 1 when a ball of a tile of an earlier colour covered it (their claims).
+  std::vector<std::uint8_t> coveredByEarlierColours(int t, const TileData& d) const;
+  /// The points tile t's balls covered, by the tile that owns them (claims files).
+  void writeClaims(int t, const TileData& d, const CoverOutput& cover) const;
+  /// The records of the tile's own non-feature points farther than the gap from every output
+  /// point the tile knows (phase D's candidates).
+  std::vector<std::uint8_t> gapCandidates(const TileData& d, const std::vector<std::uint8_t>& is_feature,
+                                          const NormalList& normals, const CoverOutput& cover) const;
   void phaseD(int t);
   /// Writes nrm (turned towards the viewpoint as seen from `at`, local frame) into the record's
   /// normal fields, when the input has them.

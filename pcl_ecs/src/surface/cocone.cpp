@@ -116,6 +116,71 @@ CoconeHit coconeIntersect(const Eigen::Vector3d& p, const Eigen::Vector3d& axis,
   return hit;
 }
 
+namespace
+{
+/// Vertices whose triangles do not form one fan (connected through edges at the vertex): the
+/// link of each vertex must be a single path or cycle.
+std::size_t countNonManifoldVertices(std::size_t num_points, const std::vector<Triangle>& triangles)
+{
+  std::size_t bad = 0;
+  std::vector<std::uint32_t> offset(num_points + 1, 0);
+  for (const Triangle& tri : triangles)
+    for (std::uint32_t x : tri)
+      ++offset[x + 1];
+  for (std::size_t v = 0; v < num_points; ++v)
+    offset[v + 1] += offset[v];
+  std::vector<std::uint32_t> star(offset.back());
+  std::vector<std::uint32_t> fill(offset.begin(), offset.end() - 1);
+  for (std::uint32_t t = 0; t < triangles.size(); ++t)
+    for (std::uint32_t x : triangles[t])
+      star[fill[x]++] = t;
+  for (std::size_t v = 0; v < num_points; ++v)
+  {
+    const std::uint32_t s = offset[v], e = offset[v + 1];
+    if (e - s <= 1)
+      continue;
+    // Link edges: each triangle (v, x, y) joins x and y; the star is a disk or half-disk when the
+    // link is a single path or cycle.
+    std::unordered_map<std::uint32_t, std::uint32_t> id;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> links;
+    for (std::uint32_t k = s; k < e; ++k)
+    {
+      const Triangle& tri = triangles[star[k]];
+      std::uint32_t o[2], n = 0;
+      for (std::uint32_t x : tri)
+        if (x != v && n < 2)
+          o[n++] = x;
+      if (n < 2)
+        continue;
+      for (std::uint32_t x : o)
+        id.emplace(x, static_cast<std::uint32_t>(id.size()));
+      links.emplace_back(id[o[0]], id[o[1]]);
+    }
+    UnionFind uf(id.size());
+    std::vector<int> degree(id.size(), 0);
+    for (auto [x, y] : links)
+    {
+      uf.unite(x, y);
+      ++degree[x];
+      ++degree[y];
+    }
+    std::size_t parts = 0;
+    bool bad_degree = false;
+    for (std::uint32_t x = 0; x < id.size(); ++x)
+    {
+      if (uf.find(x) == x)
+        ++parts;
+      if (degree[x] > 2)
+        bad_degree = true;
+    }
+    if (parts != 1 || bad_degree)
+      ++bad;
+  }
+
+  return bad;
+}
+}  // namespace
+
 MeshTopology analyzeTopology(std::size_t num_points, const std::vector<Triangle>& triangles)
 {
   MeshTopology topo;
@@ -178,59 +243,7 @@ MeshTopology analyzeTopology(std::size_t num_points, const std::vector<Triangle>
                               static_cast<long>(topo.triangles - topo.degenerate_triangles);
 
   // Vertex stars: the triangles around v must form one fan (connected through edges at v).
-  std::vector<std::uint32_t> offset(num_points + 1, 0);
-  for (const Triangle& tri : triangles)
-    for (std::uint32_t x : tri)
-      ++offset[x + 1];
-  for (std::size_t v = 0; v < num_points; ++v)
-    offset[v + 1] += offset[v];
-  std::vector<std::uint32_t> star(offset.back());
-  std::vector<std::uint32_t> fill(offset.begin(), offset.end() - 1);
-  for (std::uint32_t t = 0; t < triangles.size(); ++t)
-    for (std::uint32_t x : triangles[t])
-      star[fill[x]++] = t;
-  for (std::size_t v = 0; v < num_points; ++v)
-  {
-    const std::uint32_t s = offset[v], e = offset[v + 1];
-    if (e - s <= 1)
-      continue;
-    // Link edges: each triangle (v, x, y) joins x and y; the star is a disk or half-disk when the
-    // link is a single path or cycle.
-    std::unordered_map<std::uint32_t, std::uint32_t> id;
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> links;
-    for (std::uint32_t k = s; k < e; ++k)
-    {
-      const Triangle& tri = triangles[star[k]];
-      std::uint32_t o[2], n = 0;
-      for (std::uint32_t x : tri)
-        if (x != v && n < 2)
-          o[n++] = x;
-      if (n < 2)
-        continue;
-      for (std::uint32_t x : o)
-        id.emplace(x, static_cast<std::uint32_t>(id.size()));
-      links.emplace_back(id[o[0]], id[o[1]]);
-    }
-    UnionFind uf(id.size());
-    std::vector<int> degree(id.size(), 0);
-    for (auto [x, y] : links)
-    {
-      uf.unite(x, y);
-      ++degree[x];
-      ++degree[y];
-    }
-    std::size_t parts = 0;
-    bool bad_degree = false;
-    for (std::uint32_t x = 0; x < id.size(); ++x)
-    {
-      if (uf.find(x) == x)
-        ++parts;
-      if (degree[x] > 2)
-        bad_degree = true;
-    }
-    if (parts != 1 || bad_degree)
-      ++topo.nonmanifold_vertices;
-  }
+  topo.nonmanifold_vertices = countNonManifoldVertices(num_points, triangles);
 
   // Components through shared edges.
   UnionFind comp(triangles.size());

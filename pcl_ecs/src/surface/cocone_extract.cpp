@@ -105,6 +105,85 @@ std::vector<char> pruneCandidates(const std::vector<Eigen::Vector3d>& points, co
   return alive;
 }
 
+namespace
+{
+Eigen::Vector3d triangleNormal(const std::vector<Eigen::Vector3d>& points, const Triangle& tri)
+{
+  return (points[tri[1]] - points[tri[0]]).cross(points[tri[2]] - points[tri[0]]);
+}
+
+/// The live candidate across edge a → b of triangle t (apex c, normal nrm) that turns least from
+/// t towards its outside; kNone when the edge has no other live triangle.
+std::uint32_t leastTurning(const std::vector<Eigen::Vector3d>& points, const std::vector<Triangle>& cand,
+                           const EdgeIndex& edges, const std::vector<char>& alive, std::uint32_t t, std::uint32_t a,
+                           std::uint32_t b, std::uint32_t c, const Eigen::Vector3d& nrm)
+{
+  auto range = edges.at(t, a, b);
+  if (range.second - range.first < 2)
+    return kNone;
+  const Eigen::Vector3d e = (points[b] - points[a]).normalized();
+  Eigen::Vector3d u = points[c] - points[a];
+  u -= u.dot(e) * e;
+  u.normalize();
+  Eigen::Vector3d v = e.cross(u);
+  if (v.dot(nrm) < 0)
+    v = -v;  // turn from t towards its outside
+  double best = std::numeric_limits<double>::infinity();
+  std::uint32_t next = kNone;
+  for (auto it = range.first; it != range.second; ++it)
+  {
+    const std::uint32_t s = it->second;
+    if (s == t || !alive[s])
+      continue;
+    const double ang = halfPlaneAngle(points[a], e, points[apex(cand[s], a, b)], u, v);
+    if (ang < best)
+    {
+      best = ang;
+      next = s;
+    }
+  }
+  return next;
+}
+
+/// The seed of the first piece: the live triangle at the extreme-x hull vertex most aligned with
+/// that vertex's axis; kNone when no hull vertex has a live triangle.
+std::uint32_t hullSeed(const std::vector<Eigen::Vector3d>& points, const std::vector<Triangle>& cand,
+                       const std::vector<char>& alive, const Poles& poles)
+{
+  const std::size_t n = points.size();
+  const auto& is_hull = poles.is_hull;
+  const auto& axis = poles.axis;
+  std::uint32_t best_v = kNone;
+  std::vector<std::uint32_t> first_tri(n, kNone);
+  for (std::uint32_t t = 0; t < cand.size(); ++t)
+    if (alive[t])
+      for (std::uint32_t x : cand[t])
+        if (first_tri[x] == kNone)
+          first_tri[x] = t;
+  for (std::uint32_t v = 0; v < n; ++v)
+    if (first_tri[v] != kNone && is_hull[v] && (best_v == kNone || points[v].x() > points[best_v].x()))
+      best_v = v;
+  if (best_v == kNone)
+    return kNone;
+  // The triangle at best_v most aligned with its axis.
+  std::uint32_t seed = kNone;
+  double align = -1;
+  for (std::uint32_t t = 0; t < cand.size(); ++t)
+  {
+    if (!alive[t] || (cand[t][0] != best_v && cand[t][1] != best_v && cand[t][2] != best_v))
+      continue;
+    const Eigen::Vector3d nrm = triangleNormal(points, cand[t]).normalized();
+    const double al = std::abs(nrm.dot(axis[best_v]));
+    if (al > align)
+    {
+      align = al;
+      seed = t;
+    }
+  }
+  return seed;
+}
+}  // namespace
+
 /// Step 6: walk the live candidates into oriented pieces, each edge crossed to the neighbour that
 /// turns least; seeds: first the hull's extreme-x vertex, then any unused triangle.
 Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std::vector<Triangle>& cand,
@@ -124,9 +203,7 @@ Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std:
       std::swap(tri[1], tri[2]);
     return tri;
   };
-  auto normalOf = [&](const Triangle& tri) {
-    return Eigen::Vector3d((points[tri[1]] - points[tri[0]]).cross(points[tri[2]] - points[tri[0]]));
-  };
+  auto normalOf = [&](const Triangle& tri) { return triangleNormal(points, tri); };
   std::uint32_t component = 0;
   auto walk = [&](std::uint32_t seed, signed char seed_orient) {
     std::deque<std::uint32_t> queue;
@@ -145,30 +222,7 @@ Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std:
       for (int k = 0; k < 3; ++k)
       {
         const std::uint32_t a = tri[k], b = tri[(k + 1) % 3], c = tri[(k + 2) % 3];
-        auto range = edges.at(t, a, b);
-        if (range.second - range.first < 2)
-          continue;
-        const Eigen::Vector3d e = (points[b] - points[a]).normalized();
-        Eigen::Vector3d u = points[c] - points[a];
-        u -= u.dot(e) * e;
-        u.normalize();
-        Eigen::Vector3d v = e.cross(u);
-        if (v.dot(nrm) < 0)
-          v = -v;  // turn from t towards its outside
-        double best = std::numeric_limits<double>::infinity();
-        std::uint32_t next = kNone;
-        for (auto it = range.first; it != range.second; ++it)
-        {
-          const std::uint32_t s = it->second;
-          if (s == t || !alive[s])
-            continue;
-          const double ang = halfPlaneAngle(points[a], e, points[apex(cand[s], a, b)], u, v);
-          if (ang < best)
-          {
-            best = ang;
-            next = s;
-          }
-        }
+        const std::uint32_t next = leastTurning(points, cand, edges, alive, t, a, b, c, nrm);
         if (next == kNone || orient[next] != 0)
           continue;
         // Consistent orientation: next must traverse b → a.
@@ -188,17 +242,6 @@ Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std:
   // Seeds: first the live triangle at the extreme-x hull vertex, oriented along its outward axis;
   // then any live triangle none of whose vertices is used yet.
   {
-    std::uint32_t best_v = kNone;
-    std::vector<std::vector<std::uint32_t>> unused;
-    std::vector<std::uint32_t> first_tri(n, kNone);
-    for (std::uint32_t t = 0; t < cand.size(); ++t)
-      if (alive[t])
-        for (std::uint32_t x : cand[t])
-          if (first_tri[x] == kNone)
-            first_tri[x] = t;
-    for (std::uint32_t v = 0; v < n; ++v)
-      if (first_tri[v] != kNone && is_hull[v] && (best_v == kNone || points[v].x() > points[best_v].x()))
-        best_v = v;
     auto orientFor = [&](std::uint32_t t) -> signed char {
       const Eigen::Vector3d nrm = normalOf(cand[t]);
       Eigen::Vector3d out = Eigen::Vector3d::Zero();
@@ -207,30 +250,13 @@ Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std:
           out += axis[x];
       return out.dot(nrm) < 0 ? -1 : 1;
     };
-    if (best_v != kNone)
+    const std::uint32_t seed = hullSeed(points, cand, alive, poles);
+    if (seed != kNone)
     {
-      // The triangle at best_v most aligned with its axis.
-      std::uint32_t seed = kNone;
-      double align = -1;
-      for (std::uint32_t t = 0; t < cand.size(); ++t)
-      {
-        if (!alive[t] || (cand[t][0] != best_v && cand[t][1] != best_v && cand[t][2] != best_v))
-          continue;
-        const Eigen::Vector3d nrm = normalOf(cand[t]).normalized();
-        const double al = std::abs(nrm.dot(axis[best_v]));
-        if (al > align)
-        {
-          align = al;
-          seed = t;
-        }
-      }
-      if (seed != kNone)
-      {
-        walk(seed, orientFor(seed));
-        for (std::size_t k = 0; k < order.size(); ++k)
-          for (std::uint32_t x : cand[order[k]])
-            vertex_used[x] = 1;
-      }
+      walk(seed, orientFor(seed));
+      for (std::size_t k = 0; k < order.size(); ++k)
+        for (std::uint32_t x : cand[order[k]])
+          vertex_used[x] = 1;
     }
     for (std::uint32_t t = 0; t < cand.size(); ++t)
     {
