@@ -120,8 +120,8 @@ def main():
             st = json.load(open(stats))
             p, c = st["parameters"], st["counts"]
             size, target = c["output_points"], st["target"]["size"]
-            plain = ["--terr", repr(p["error_threshold_used"]), "--radius-cap", repr(p["radius_cap_factor_used"]),
-                     "--max-gap", repr(p["max_gap_factor_used"])]
+            plain = ["--terr", repr(p["terr-used"]), "--radius-cap", repr(p["radius-cap-used"]),
+                     "--max-gap", repr(p["max-gap-used"])]
             row = {"input": name, "points": c["finite_points"], "ratio": ratio, "target": target, "size": size,
                    "cover_passes": c["cover_passes"], "target_iterations": c["target_iterations"]}
             row["target_ratio_s"] = least_wall([simplify, path, out, "--target-ratio", str(ratio), "-q"], args.repeat)

@@ -1,7 +1,10 @@
+#include <pcl_ecs/parameter_table.h>
 #include <pcl_ecs/parameters.h>
 
 #include <cmath>
 #include <limits>
+#include <set>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -95,4 +98,73 @@ TEST(Parameters, ResolveThreads)
 {
   EXPECT_EQ(pcl_ecs::resolveThreads(3), 3);
   EXPECT_GE(pcl_ecs::resolveThreads(0), 1);
+}
+
+// The parameter table (parameter_table.h): one row per Parameters member, one spelling each.
+TEST(ParameterTable, EveryRowRoundTripsItsTextAndNamesItsFieldWhenOutOfRange)
+{
+  const auto& table = pcl_ecs::parameterTable();
+  EXPECT_EQ(table.size(), 17u);
+  std::set<std::string> names, fields;
+  const Parameters defaults;
+  for (const pcl_ecs::ParameterInfo& info : table)
+  {
+    SCOPED_TRACE(info.name);
+    EXPECT_TRUE(names.insert(info.name).second) << "spelled twice";
+    EXPECT_TRUE(fields.insert(info.field).second) << "described twice";
+    EXPECT_EQ(pcl_ecs::findParameter(info.name), &info);
+    // A flag's spelling: lower case words joined by '-'.
+    for (const char c : std::string(info.name))
+      EXPECT_TRUE((c >= 'a' && c <= 'z') || c == '-') << c;
+    // The default's text, set into other parameters, gives the same text back.
+    Parameters p;
+    p.error_threshold = 0.5;
+    p.k_neighbors = 9;
+    p.seed = 7;
+    const std::string text = pcl_ecs::parameterText(info, defaults);
+    if (*info.metavar)
+    {
+      EXPECT_EQ(pcl_ecs::setParameter(info, text, p), "");
+      EXPECT_EQ(pcl_ecs::parameterText(info, p), text);
+    }
+    EXPECT_TRUE(pcl_ecs::inRange(info, defaults));
+  }
+  // Out of range: validate() names the field (and the paper's symbol where there is one).
+  struct Bad
+  {
+    const char* name;
+    const char* text;
+    const char* message;
+  };
+  for (const Bad& b : {Bad{"terr", "1", "error_threshold (T_err) = 1 is invalid: must be in (0, 1)"},
+                       Bad{"alpha", "0", "feature_factor (alpha) = 0 is invalid"},
+                       Bad{"k", "4", "k_neighbors (K) = 4 is invalid: must be an integer in [5, 200]"},
+                       Bad{"adapt-factor", "0.5", "adaptive_factor = 0.5 is invalid"},
+                       Bad{"radius-cap", "1001", "radius_cap_factor = 1001 is invalid"},
+                       Bad{"rep-offset", "1.5", "max_representative_offset = 1.5 is invalid"},
+                       Bad{"rep-cutoff", "0", "representative_cutoff = 0 is invalid"},
+                       Bad{"max-roughness", "11", "max_roughness = 11 is invalid"},
+                       Bad{"max-gap", "-1", "max_gap_factor = -1 is invalid: must be 0 (off) or in (0, 100]"},
+                       Bad{"target-gap", "101", "target_gap_factor = 101 is invalid"},
+                       Bad{"threads", "1025", "threads = 1025 is invalid"},
+                       Bad{"target-cap", "-2", "target_radius_cap = -2 is invalid"}})
+  {
+    Parameters p;
+    ASSERT_EQ(pcl_ecs::setParameter(*pcl_ecs::findParameter(b.name), b.text, p), "") << b.name;
+    EXPECT_NE(pcl_ecs::validate(p).find(b.message), std::string::npos) << b.name << ": " << pcl_ecs::validate(p);
+  }
+  // Text that is no value of the row is refused before any range.
+  Parameters p;
+  EXPECT_NE(pcl_ecs::setParameter(*pcl_ecs::findParameter("terr"), "abc", p).find("not a number"), std::string::npos);
+  EXPECT_NE(pcl_ecs::setParameter(*pcl_ecs::findParameter("seed"), "-1", p).find("must not be negative"), std::string::npos);
+  EXPECT_NE(pcl_ecs::setParameter(*pcl_ecs::findParameter("k"), "1e9", p).find("not an integer"), std::string::npos);
+  EXPECT_NE(pcl_ecs::setParameter(*pcl_ecs::findParameter("error-form"), "x", p).find("normalized"), std::string::npos);
+  // Switches: "true" sets the member to the switch's value, "false" leaves it.
+  const pcl_ecs::ParameterInfo& no_adapt = *pcl_ecs::findParameter("no-adapt");
+  EXPECT_EQ(pcl_ecs::setParameter(no_adapt, "false", p), "");
+  EXPECT_TRUE(p.adaptive);
+  EXPECT_EQ(pcl_ecs::setParameter(no_adapt, "true", p), "");
+  EXPECT_FALSE(p.adaptive);
+  EXPECT_EQ(pcl_ecs::parameterText(no_adapt, p), "true");
+  EXPECT_EQ(pcl_ecs::findParameter("error_threshold"), nullptr);  // the field is not a spelling
 }

@@ -373,9 +373,8 @@ int runStream(const Options& o)
     j["version"] = PCL_ECS_VERSION_STRING;
     j["input"] = o.input;
     j["output"] = o.output;
-    j["parameters"] = {{"error_threshold", o.params.error_threshold}, {"feature_factor", o.params.feature_factor},
-                       {"k_neighbors", o.params.k_neighbors},         {"seed", o.params.seed},
-                       {"max_gap_factor", o.params.max_gap_factor},   {"memory_limit", o.memory_limit}};
+    j["parameters"] = parametersJson(o.params);
+    j["parameters"]["memory-limit"] = o.memory_limit;
     j["counts"] = {{"input_points", s.input_points}, {"finite_points", s.finite_points},
                    {"merged_points", s.merged_points},
                    {"feature_points", s.feature_points}, {"balls", s.balls},

@@ -160,13 +160,10 @@ def summary_line(output: str, s: Dict[str, Any], error_threshold: float) -> str:
             f"max error {s['max_error']:.3g} L; {s['tiles']} tiles; {s['seconds']:.2f} s ({rate:.2f} M points/s)")
 
 
-_FLAGS = [  # pcd_simplify's flag, the parameter, its type
-    ("--terr", "error_threshold", float), ("--alpha", "feature_factor", float), ("--k", "k_neighbors", int),
-    ("--error-form", "error_form", str), ("--adapt-factor", "adaptive_factor", float),
-    ("--radius-cap", "radius_cap_factor", float), ("--rep-offset", "max_representative_offset", float),
-    ("--rep-cutoff", "representative_cutoff", float), ("--max-roughness", "max_roughness", float),
-    ("--max-gap", "max_gap_factor", float), ("--seed", "seed", int), ("--threads", "threads", int),
-]
+def _method_flags():
+    """The method's parameters as pcd_simplify spells them (the C++ parameter table), without the
+    target-size ones (the out-of-core run takes a T_err)."""
+    return [row for row in _core._parameter_table() if not row["name"].startswith("target-")]
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
@@ -187,14 +184,26 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     ap.add_argument("--tile-points", type=int, default=0, metavar="N", help="largest tile (default: from the limit)")
     ap.add_argument("--keep-scratch", action="store_true", help="keep the scratch directory after success")
     ap.add_argument("--stats", metavar="FILE", help="write the run's summary as JSON to FILE")
-    ap.add_argument("--no-adapt", action="store_true", help="do not adapt T_err to curvature and density")
-    for flag, name, kind in _FLAGS:
-        ap.add_argument(flag, dest=name, type=kind, default=None, metavar=name.upper())
+    method = ap.add_argument_group("the method (pcd_simplify's flags)")
+    for row in _method_flags():
+        if row["metavar"]:
+            method.add_argument("--" + row["name"], dest="p_" + row["field"], default=None, metavar=row["metavar"],
+                                help=f"{row['help']}; {row['range']}")
+        else:
+            method.add_argument("--" + row["name"], dest="p_" + row["field"], action="store_true", help=row["help"])
     ap.add_argument("--quiet", action="store_true", help="no progress bar and no summary line")
     o = ap.parse_args(argv)
-    params = {name: getattr(o, name) for _, name, _ in _FLAGS if getattr(o, name) is not None}
-    if o.no_adapt:
-        params["adaptive"] = False
+    chosen, given = _core.Parameters(), []
+    for row in _method_flags():
+        value = getattr(o, "p_" + row["field"])
+        if value is None or value is False:
+            continue
+        try:
+            _core._set_parameter(chosen, row["name"], "true" if value is True else value)
+        except ValueError as e:
+            ap.error(str(e))
+        given.append(row["field"])
+    params = {field: getattr(chosen, field) for field in given}
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError:

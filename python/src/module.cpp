@@ -9,6 +9,7 @@
 #include <pcl_ecs/io/cloud_io.h>
 #include <pcl_ecs/io/las_io.h>
 #include <pcl_ecs/io/record_stream.h>
+#include <pcl_ecs/parameter_table.h>
 #include <pcl_ecs/parameters.h>
 #include <pcl_ecs/stream/out_of_core.h>
 #include <pcl_ecs/surface/cocone.h>
@@ -407,6 +408,34 @@ NB_MODULE(_core, m)
       .def_rw("target_size", &Parameters::target_size)
       .def("validate", [](const Parameters& p) { return pcl_ecs::validate(p); },
            "The reason the parameters are invalid, or an empty string");
+  m.def(
+      "_parameter_table",
+      [] {
+        nb::list rows;
+        for (const pcl_ecs::ParameterInfo& info : pcl_ecs::parameterTable())
+        {
+          nb::dict row;
+          row["name"] = info.name;
+          row["field"] = info.field;
+          row["metavar"] = info.metavar;
+          row["range"] = info.range;
+          row["help"] = info.help;
+          rows.append(row);
+        }
+        return rows;
+      },
+      "Every parameter: its one spelling (the flag without dashes, the --stats JSON key), its field, its help");
+  m.def(
+      "_set_parameter",
+      [](Parameters& p, const std::string& name, const std::string& text) {
+        const pcl_ecs::ParameterInfo* info = pcl_ecs::findParameter(name);
+        if (!info)
+          throw nb::value_error(("no parameter '" + name + "'").c_str());
+        const std::string why = pcl_ecs::setParameter(*info, text, p);
+        if (!why.empty())
+          throw nb::value_error(("--" + name + ": " + why).c_str());
+      },
+      "p"_a, "name"_a, "text"_a, "Set a parameter from its flag's text (as pcd_simplify reads it)");
   m.def("_simplify", &simplify, "points"_a, "normals"_a.none(), "colors"_a.none(), "intensity"_a.none(),
         "params"_a, "target_ratio"_a);
   m.def("_read", &readFile, "path"_a);

@@ -2,6 +2,8 @@
 // mode, attributes, the stats file, and every bad input with its exit code and no output left.
 #include "cli_fixture.h"
 
+#include <pcl_ecs/parameter_table.h>
+
 #include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/cloud_io.h>
 
@@ -164,8 +166,16 @@ TEST_F(Cli, StatsAgreeWithTheOutputAndFeaturesFile)
   EXPECT_EQ(j["counts"]["feature_points"].get<std::size_t>(), feats.width);
   EXPECT_EQ(j["counts"]["feature_points"].get<std::size_t>() + j["counts"]["balls"].get<std::size_t>(), out.width);
   EXPECT_EQ(j["counts"]["input_points"].get<std::size_t>(), 120000u);
-  EXPECT_DOUBLE_EQ(j["parameters"]["feature_factor"].get<double>(), 5.0);
-  EXPECT_LE(j["geometry"]["max_error"].get<double>(), 2.0 * j["parameters"]["error_threshold"].get<double>());
+  EXPECT_DOUBLE_EQ(j["parameters"]["alpha"].get<double>(), 5.0);
+  EXPECT_LE(j["geometry"]["max_error"].get<double>(), 2.0 * j["parameters"]["terr"].get<double>());
+  // Every parameter under its flag's spelling, and --help lists every one.
+  const RunResult help = run("--help");
+  for (const pcl_ecs::ParameterInfo& info : pcl_ecs::parameterTable())
+  {
+    EXPECT_TRUE(j["parameters"].contains(info.name)) << info.name;
+    EXPECT_NE(help.out.find(std::string("--") + info.name + (*info.metavar ? " " : "")), std::string::npos) << info.name;
+  }
+  EXPECT_EQ(j["parameters"]["no-adapt"].get<bool>(), false);
   EXPECT_GT(j["timings_s"]["total"].get<double>(), 0.0);
   // The output's bounding box lies within the input's (grown by a ball radius at most).
   for (int k = 0; k < 3; ++k)
@@ -255,7 +265,7 @@ TEST_F(Cli, BadParametersAreUsageErrors)
   expectRefused(in + out + " --alpha 0", 2, none, "feature_factor");
   expectRefused(in + out + " --k 3", 2, none, "k_neighbors");
   expectRefused(in + out + " --k 1e9", 2, none, "--k");
-  expectRefused(in + out + " --threads -2", 2, none, "--threads");
+  expectRefused(in + out + " --threads -2", 2, none, "threads = -2 is invalid");
   expectRefused(in + out + " --radius-cap 0", 2, none, "radius_cap_factor");
   expectRefused(in + out + " --adapt-factor 0.5", 2, none, "adaptive_factor");
   expectRefused(in + out + " --rep-offset 0", 2, none, "max_representative_offset");

@@ -416,10 +416,16 @@ TEST_F(NodeTest, EveryLaunchFileParsesAndBadOnesAreRefused)
                             " --help > /dev/null 2>&1";
     EXPECT_EQ(WEXITSTATUS(std::system(cmd.c_str())), 0) << name;
   }
+  // Keys are the flags' spellings, the method's under filter: as pcd_simplify spells them.
+  std::ofstream(dir / "flags.yaml") << "stats-interval: 0\nonce: false\nmax-frame-bytes: 64M\nfilter:\n"
+                                       "  max-gap: 0.5\n  no-adapt: true\n  rep-offset: 1\n";
+  EXPECT_EQ(WEXITSTATUS(std::system((kNode + " --launch " + (dir / "flags.yaml").string() + " --help > /dev/null 2>&1").c_str())), 0);
   std::ofstream(dir / "bad.yaml") << "source: stdin\nfilter:\n  terr: -1\n";
   std::ofstream(dir / "unknown.yaml") << "sourse: stdin\n";
   std::ofstream(dir / "policy.yaml") << "policy: sometimes\n";
-  for (const char* name : {"bad.yaml", "unknown.yaml", "policy.yaml", "missing.yaml"})
+  std::ofstream(dir / "snake.yaml") << "stats_interval: 5\n";         // not a flag's spelling
+  std::ofstream(dir / "field.yaml") << "filter:\n  max_gap_factor: 1\n";  // a field, not a flag
+  for (const char* name : {"bad.yaml", "unknown.yaml", "policy.yaml", "missing.yaml", "snake.yaml", "field.yaml"})
   {
     const std::string cmd = kNode + " --launch " + (dir / name).string() + " > /dev/null 2>&1";
     EXPECT_EQ(WEXITSTATUS(std::system(cmd.c_str())), 2) << name;

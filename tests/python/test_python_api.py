@@ -86,8 +86,12 @@ def test_every_parameter_is_a_keyword_that_round_trips():
                "use_input_normals": False, "target_size": 0}
     assert set(changed) == set(names)
     r = pcl_ecs.simplify(sphere_with_cap(), **changed)
+    # The summary spells every parameter as pcd_simplify's flag (one table for both).
+    spelling = {row["field"]: row["name"] for row in pcl_ecs._core._parameter_table()}
+    assert set(spelling) == set(names)
     for name, value in changed.items():
-        assert r.summary["parameters"][name] == value, name
+        expected = (not value) if name == "adaptive" else value  # the switch is --no-adapt
+        assert r.summary["parameters"][spelling[name]] == expected, name
     assert getattr(defaults, "error_threshold") == 1e-3 and defaults.k_neighbors == 16
 
 

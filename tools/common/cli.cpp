@@ -1,5 +1,7 @@
 #include "cli.h"
 
+#include <pcl_ecs/parameter_table.h>
+
 #include <algorithm>
 
 #include <cerrno>
@@ -51,60 +53,17 @@ std::uint64_t parseUnsignedFlag(const std::string& flag, const std::string& text
 bool applyFilterFlag(const std::string& flag, const std::function<std::string()>& value,
                      Parameters& p)
 {
-  if (flag == "--terr")
-    p.error_threshold = parseDoubleFlag(flag, value());
-  else if (flag == "--alpha")
-    p.feature_factor = parseDoubleFlag(flag, value());
-  else if (flag == "--k")
-  {
-    const std::int64_t k = parseIntFlag(flag, value());
-    if (k < 0 || k > 100000)
-      throw UsageError(flag + ": " + std::to_string(k) + " is out of range [5, 200]");
-    p.k_neighbors = static_cast<int>(k);
-  }
-  else if (flag == "--error-form")
-  {
-    const std::string v = value();
-    if (!parseErrorForm(v, p.error_form))
-      throw UsageError(flag + ": '" + v + "' is not 'normalized' or 'paper'");
-  }
-  else if (flag == "--no-adapt")
-    p.adaptive = false;
-  else if (flag == "--adapt-factor")
-    p.adaptive_factor = parseDoubleFlag(flag, value());
-  else if (flag == "--radius-cap")
-    p.radius_cap_factor = parseDoubleFlag(flag, value());
-  else if (flag == "--rep-offset")
-    p.max_representative_offset = parseDoubleFlag(flag, value());
-  else if (flag == "--rep-cutoff")
-    p.representative_cutoff = parseDoubleFlag(flag, value());
-  else if (flag == "--max-roughness")
-    p.max_roughness = parseDoubleFlag(flag, value());
-  else if (flag == "--max-gap")
-    p.max_gap_factor = parseDoubleFlag(flag, value());
-  else if (flag == "--target-gap")
-    p.target_gap_factor = parseDoubleFlag(flag, value());
-  else if (flag == "--target-cap")
-    p.target_radius_cap = parseDoubleFlag(flag, value());
-  else if (flag == "--seed")
-    p.seed = parseUnsignedFlag(flag, value());
-  else if (flag == "--threads")
-  {
-    const std::int64_t t = parseIntFlag(flag, value());
-    if (t < 0 || t > 1024)
-      throw UsageError(flag + ": " + std::to_string(t) + " is out of range [0, 1024]");
-    p.threads = static_cast<int>(t);
-  }
-  else if (flag == "--use-input-normals")
-    p.use_input_normals = true;
-  else if (flag == "--target-size")
-  {
-    p.target_size = parseUnsignedFlag(flag, value());
-    if (p.target_size == 0)
-      throw UsageError(flag + ": must be at least 1");
-  }
-  else
+  if (flag.rfind("--", 0) != 0)
     return false;
+  const ParameterInfo* info = findParameter(flag.substr(2));
+  if (!info)
+    return false;
+  const bool is_switch = *info->metavar == '\0';
+  const std::string why = setParameter(*info, is_switch ? std::string("true") : value(), p);
+  if (!why.empty())
+    throw UsageError(flag + ": " + why);
+  if (flag == "--target-size" && p.target_size == 0)
+    throw UsageError(flag + ": must be at least 1");
   return true;
 }
 
@@ -125,38 +84,40 @@ std::string filterFlagsHelp()
 {
   const Parameters d;
   std::ostringstream os;
-  os << "Method (defaults are the library's):\n"
-     << "  --terr T            error bound T_err, a fraction of the bounding-box diagonal L, in (0, 1)\n"
-     << "                      (default " << d.error_threshold << "); larger keeps fewer points\n"
-     << "  --alpha A           feature factor α of eq. 4, > 0 (default " << d.feature_factor
-     << "); larger keeps fewer feature points\n"
-     << "  --k K               neighbourhood size, in [5, 200] (default " << d.k_neighbors << ")\n"
-     << "  --error-form F      normalized (scale-free, default) or paper (the paper's literal eq. 14)\n"
-     << "  --no-adapt          do not adapt T_err to local curvature and density (step 5)\n"
-     << "  --adapt-factor F    adaptation factor, in [1, 100] (default " << d.adaptive_factor << ")\n"
-     << "  --radius-cap C      largest ball radius, in mean neighbourhood radii, in (0, 1000]\n"
-     << "                      (default " << d.radius_cap_factor << ")\n"
-     << "  --rep-offset F      the optimised point stands for its ball when within F × r of the centre,\n"
-     << "                      else the centre; the paper's rule is 1; in (0, 1] (default " << d.max_representative_offset << ")\n"
-     << "  --rep-cutoff F      the optimised point moves from the centre only along the directions whose\n"
-     << "                      eigenvalue is above F × the largest of its quadric; in (0, 1] (default "
-     << d.representative_cutoff << ";\n"
-     << "                      E(r) uses 0.001)\n"
-     << "  --max-roughness F   a ball whose points scatter about their planes by more than F × r (RMS)\n"
-     << "                      keeps its centre, an input point; in (0, 10] (default " << d.max_roughness
-     << "; 2 = never)\n"
-     << "  --max-gap G         no input point farther than G × the radius cap from the output: points\n"
-     << "                      left farther become output points; 0 = off (the paper's method);\n"
-     << "                      0 or in (0, 100] (default " << d.max_gap_factor << ")\n"
-     << "  --target-gap G      the same with a target size, × the cap the target implies (default "
-     << d.target_gap_factor << ")\n"
-     << "  --seed S            seed of the centre order (default " << d.seed
-     << "); same seed, same output\n"
-     << "  --threads N         worker threads, 0 = all (default 0); the output does not depend on it\n"
-     << "  --use-input-normals use the input's normals instead of estimating them\n"
-     << "  --target-size N     aim at N output points (searches T_err; within 1% or the closest)\n"
-     << "  --target-cap C      with a target size, the radius cap is C × the spacing the target implies\n"
-     << "                      instead of --radius-cap; 0 = use --radius-cap (default " << d.target_radius_cap << ")\n";
+  os << "Method (defaults are the library's):\n";
+  constexpr std::size_t kIndent = 22, kWidth = 100;
+  for (const ParameterInfo& info : parameterTable())
+  {
+    std::string head = std::string("  --") + info.name;
+    if (*info.metavar)
+      head += std::string(" ") + info.metavar;
+    std::string text = info.help;
+    if (*info.metavar)
+      text += std::string("; ") + info.range + " (default " + parameterText(info, d) + ")";
+    // The flag, then its text wrapped at kWidth columns under kIndent.
+    std::string line = head.size() + 1 < kIndent ? head + std::string(kIndent - head.size(), ' ') : head + "\n" + std::string(kIndent, ' ');
+    std::size_t column = line.size() - (line.rfind('\n') == std::string::npos ? 0 : line.rfind('\n') + 1);
+    std::istringstream words(text);
+    std::string word;
+    bool first = true;
+    while (words >> word)
+    {
+      if (!first && column + 1 + word.size() > kWidth)
+      {
+        line += "\n" + std::string(kIndent, ' ');
+        column = kIndent;
+      }
+      else if (!first)
+      {
+        line += ' ';
+        ++column;
+      }
+      line += word;
+      column += word.size();
+      first = false;
+    }
+    os << line << "\n";
+  }
   return os.str();
 }
 

@@ -1,5 +1,7 @@
 #include "cloud_simplify.h"
 
+#include <pcl_ecs/parameter_table.h>
+
 #include <pcl_ecs/spatial_order.h>
 
 #include <pcl_ecs/feature_aware_cover_simplify.h>
@@ -171,36 +173,37 @@ CloudRun simplifyCloud(const pcl::PCLPointCloud2& input, const Parameters& given
   return run;
 }
 
+nlohmann::json parametersJson(const Parameters& p)
+{
+  nlohmann::json j = nlohmann::json::object();
+  for (const ParameterInfo& info : parameterTable())
+    std::visit(
+        [&](auto member) {
+          using T = std::decay_t<decltype(p.*member)>;
+          if constexpr (std::is_same<T, bool>::value)
+            j[info.name] = p.*member == info.switch_value;  // the switch is given
+          else if constexpr (std::is_same<T, ErrorForm>::value)
+            j[info.name] = toString(p.*member);
+          else
+            j[info.name] = p.*member;
+        },
+        info.member);
+  return j;
+}
+
 nlohmann::json runStatsJson(const Summary& s, const Parameters& p, double target_ratio)
 {
   const StageTimings& t = s.timings;
   nlohmann::json j;
-  j["parameters"] = {{"error_threshold", p.error_threshold},
-                     {"error_threshold_used", s.error_threshold},
-                     {"feature_factor", p.feature_factor},
-                     {"k_neighbors", p.k_neighbors},
-                     {"error_form", toString(p.error_form)},
-                     {"adaptive", p.adaptive},
-                     {"adaptive_factor", p.adaptive_factor},
-                     {"radius_cap_factor", p.radius_cap_factor},
-                     {"target_radius_cap", p.target_radius_cap},
-                     {"max_representative_offset", p.max_representative_offset},
-                     {"representative_cutoff", p.representative_cutoff},
-                     {"max_roughness", p.max_roughness},
-                     {"max_gap_factor", p.max_gap_factor},
-                     {"target_gap_factor", p.target_gap_factor},
-                     {"radius_cap_factor_used", s.radius_cap_factor},
-                     // the gap bound the run used, in radius caps (--max-gap): with the two other
-                     // "_used" values, the flags of a plain run that gives this output
-                     {"max_gap_factor_used",
-                      s.radius_cap_factor > 0.0 && s.neighborhood_radius > 0.0
-                          ? s.max_gap / (s.radius_cap_factor * s.neighborhood_radius)
-                          : p.max_gap_factor},
-                     {"seed", p.seed},
-                     {"threads", p.threads},
-                     {"use_input_normals", p.use_input_normals},
-                     {"target_size", p.target_size},
-                     {"target_ratio", target_ratio}};
+  // Every parameter under its one spelling (parameter_table.h), and what a target-size run used:
+  // with --terr, --radius-cap and --max-gap at these "-used" values a plain run gives this output.
+  j["parameters"] = parametersJson(p);
+  j["parameters"]["terr-used"] = s.error_threshold;
+  j["parameters"]["radius-cap-used"] = s.radius_cap_factor;
+  j["parameters"]["max-gap-used"] = s.radius_cap_factor > 0.0 && s.neighborhood_radius > 0.0
+                                        ? s.max_gap / (s.radius_cap_factor * s.neighborhood_radius)
+                                        : p.max_gap_factor;
+  j["parameters"]["target-ratio"] = target_ratio;
   j["counts"] = {{"input_points", s.input_points},
                  {"finite_points", s.finite_points},
                  {"feature_points", s.feature_points},

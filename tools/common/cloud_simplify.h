@@ -42,6 +42,9 @@ CloudRun simplifyCloud(const pcl::PCLPointCloud2& input, const Parameters& param
 
 /** \brief What a run used and found, as `pcd_simplify --stats` writes it (and the Python
  * package's Result.summary): parameters, counts, target, geometry and timings. */
+/// Every parameter of `p` under its one spelling (parameter_table.h): {"terr": 0.001, ...}.
+nlohmann::json parametersJson(const Parameters& p);
+
 nlohmann::json runStatsJson(const Summary& s, const Parameters& p, double target_ratio);
 
 /** \brief Finite points of `cloud` at distinct places (coincident points count once). */

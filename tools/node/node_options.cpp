@@ -1,13 +1,15 @@
 // node_options.cpp — ecs_node's launch file and flags (node_options.h).
 #include "node_options.h"
 
+#include <pcl_ecs/parameter_table.h>
+
 #include "../common/cli.h"
 
 #include <pcl_ecs/stream/out_of_core.h>
 #include <pcl_ecs/version.h>
 
+#include <functional>
 #include <iostream>
-#include <set>
 #include <stdexcept>
 
 #include <yaml-cpp/yaml.h>
@@ -53,6 +55,85 @@ dimension (docs/LAS.md); to any other sink as binary PCD with every dimension as
 
 )";
 
+namespace
+{
+/// One of the node's own flags (not the filter's); false when `a` is none of them.
+bool applyNodeFlag(const std::string& a, const std::function<std::string()>& value, Options& o)
+{
+  if (a == "--source")
+    o.source = value();
+  else if (a == "--sink")
+    o.sink = value();
+  else if (a == "--queue")
+    o.queue = tools::parseUnsignedFlag(a, value());
+  else if (a == "--max-frame-bytes")
+  {
+    const std::string v = value();
+    if (!stream::parseByteSize(v, o.max_frame_bytes))
+      throw tools::UsageError("--max-frame-bytes: '" + v + "' is not a size (like 64M)");
+  }
+  else if (a == "--max-bytes-in-flight")
+  {
+    const std::string v = value();
+    if (!stream::parseByteSize(v, o.max_bytes_in_flight))
+      throw tools::UsageError("--max-bytes-in-flight: '" + v + "' is not a size (like 1G)");
+  }
+  else if (a == "--read-timeout")
+    o.read_timeout = tools::parseDoubleFlag(a, value());
+  else if (a == "--policy")
+  {
+    const std::string p = value();
+    if (p != "block" && p != "drop-oldest")
+      throw tools::UsageError("--policy must be block or drop-oldest");
+    o.drop_oldest = p == "drop-oldest";
+  }
+  else if (a == "--workers")
+    o.workers = static_cast<int>(tools::parseIntFlag(a, value()));
+  else if (a == "--stats-interval")
+    o.stats_interval = tools::parseDoubleFlag(a, value());
+  else if (a == "--poll-ms")
+    o.poll_ms = static_cast<int>(tools::parseIntFlag(a, value()));
+  else if (a == "--once")
+    o.once = true;
+  else if (a == "--quiet" || a == "-q")
+    o.quiet = true;
+  else
+    return false;
+  return true;
+}
+
+/// The settings checked against each other; throws tools::UsageError.
+void checkOptions(const Options& o)
+{
+  if (o.queue < 1 || o.queue > 100000)
+    throw tools::UsageError("queue must be in [1, 100000]");
+  if (o.workers < 1 || o.workers > 256)
+    throw tools::UsageError("workers must be in [1, 256]");
+  if (!(o.stats_interval >= 0.0))
+    throw tools::UsageError("stats interval must be >= 0");
+  if (!(o.read_timeout >= 0.0 && o.read_timeout <= 86400.0))
+    throw tools::UsageError("read timeout must be in [0, 86400] seconds");
+  if (o.max_frame_bytes > o.max_bytes_in_flight)
+    throw tools::UsageError("--max-frame-bytes (" + std::to_string(o.max_frame_bytes) +
+                            ") exceeds --max-bytes-in-flight (" + std::to_string(o.max_bytes_in_flight) +
+                            "): a frame of the largest size could never be read");
+  if (o.poll_ms < 1 || o.poll_ms > 60000)
+    throw tools::UsageError("poll-ms must be in [1, 60000]");
+  const std::string why = validate(o.params);
+  if (!why.empty())
+    throw tools::UsageError(why);
+  try
+  {
+    parseEndpoint(o.source, true);
+    parseEndpoint(o.sink, false);
+  }
+  catch (const std::invalid_argument& e)
+  {
+    throw tools::UsageError(e.what());
+  }
+}
+}  // namespace
+
 void applyYaml(const std::string& path, Options& o)
 {
   YAML::Node y;
@@ -64,47 +145,53 @@ void applyYaml(const std::string& path, Options& o)
   {
     throw tools::UsageError(path + ": " + e.what());
   }
-  static const std::set<std::string> known = {"source", "sink", "queue", "policy", "workers",
-                                              "stats_interval", "poll_ms", "once", "quiet", "filter",
-                                              "max_frame_bytes", "max_bytes_in_flight", "read_timeout"};
-  for (const auto& kv : y)
-    if (!known.count(kv.first.as<std::string>()))
-      throw tools::UsageError(path + ": unknown key '" + kv.first.as<std::string>() + "'");
+  if (!y.IsMap())
+    throw tools::UsageError(path + ": a launch file is a map of option: value");
+  // Every key is a flag without its dashes (stats-interval: 5 is --stats-interval 5; once: true is
+  // --once); the method's parameters may also sit under filter: (terr: 1.0e-3 is --terr 1.0e-3).
+  auto apply = [&](const std::string& key, const YAML::Node& node, bool in_filter) {
+    if (!node.IsScalar())
+      throw tools::UsageError(path + ": '" + key + "' needs a single value");
+    const std::string text = node.as<std::string>();
+    if (const ParameterInfo* info = findParameter(key))
+    {
+      const std::string why = setParameter(*info, text, o.params);
+      if (!why.empty())
+        throw tools::UsageError(path + ": " + key + ": " + why);
+      return;
+    }
+    if (in_filter || key == "launch")
+      throw tools::UsageError(path + ": unknown " + (in_filter ? "filter key '" : "key '") + key + "'");
+    if (key == "once" || key == "quiet")
+    {
+      if (text != "true" && text != "false")
+        throw tools::UsageError(path + ": " + key + ": '" + text + "' is not true or false");
+      if (text == "false")
+        return;
+    }
+    try
+    {
+      if (!applyNodeFlag("--" + key, [&] { return text; }, o))
+        throw tools::UsageError("unknown key '" + key + "'");
+    }
+    catch (const tools::UsageError& e)
+    {
+      throw tools::UsageError(path + ": " + e.what());
+    }
+  };
   try
   {
-    if (y["source"]) o.source = y["source"].as<std::string>();
-    if (y["sink"]) o.sink = y["sink"].as<std::string>();
-    if (y["queue"]) o.queue = y["queue"].as<std::size_t>();
-    if (y["max_frame_bytes"] && !stream::parseByteSize(y["max_frame_bytes"].as<std::string>(), o.max_frame_bytes))
-      throw tools::UsageError(path + ": max_frame_bytes must be a size like 64M");
-    if (y["max_bytes_in_flight"] &&
-        !stream::parseByteSize(y["max_bytes_in_flight"].as<std::string>(), o.max_bytes_in_flight))
-      throw tools::UsageError(path + ": max_bytes_in_flight must be a size like 1G");
-    if (y["read_timeout"]) o.read_timeout = y["read_timeout"].as<double>();
-    if (y["policy"])
+    for (const auto& kv : y)
     {
-      const std::string p = y["policy"].as<std::string>();
-      if (p != "block" && p != "drop-oldest")
-        throw tools::UsageError(path + ": policy must be block or drop-oldest");
-      o.drop_oldest = p == "drop-oldest";
+      const std::string key = kv.first.as<std::string>();
+      if (key != "filter")
+        apply(key, kv.second, false);
+      else if (!kv.second.IsMap())
+        throw tools::UsageError(path + ": filter: holds the method's parameters (terr: 1.0e-3, ...)");
+      else
+        for (const auto& f : kv.second)
+          apply(f.first.as<std::string>(), f.second, true);
     }
-    if (y["workers"]) o.workers = y["workers"].as<int>();
-    if (y["stats_interval"]) o.stats_interval = y["stats_interval"].as<double>();
-    if (y["poll_ms"]) o.poll_ms = y["poll_ms"].as<int>();
-    if (y["once"]) o.once = y["once"].as<bool>();
-    if (y["quiet"]) o.quiet = y["quiet"].as<bool>();
-    if (y["filter"])
-      for (const auto& kv : y["filter"])
-      {
-        // Filter keys are the pcd_simplify flags without the dashes: terr, alpha, k, ...
-        const std::string flag = "--" + kv.first.as<std::string>();
-        const std::string value = kv.second.IsScalar() ? kv.second.as<std::string>() : std::string();
-        const bool is_switch = flag == "--no-adapt" || flag == "--use-input-normals";
-        if (is_switch && value != "true")
-          continue;
-        if (!tools::applyFilterFlag(flag, [&] { return value; }, o.params))
-          throw tools::UsageError(path + ": unknown filter key '" + kv.first.as<std::string>() + "'");
-      }
   }
   catch (const YAML::Exception& e)
   {
@@ -136,74 +223,10 @@ Options parseArgs(int argc, char** argv, bool& done)
     }
     if (a == "--launch")
       applyYaml(value(), o);
-    else if (tools::applyFilterFlag(a, value, o.params))
-      continue;
-    else if (a == "--source")
-      o.source = value();
-    else if (a == "--sink")
-      o.sink = value();
-    else if (a == "--queue")
-      o.queue = tools::parseUnsignedFlag(a, value());
-    else if (a == "--max-frame-bytes")
-    {
-      const std::string v = value();
-      if (!stream::parseByteSize(v, o.max_frame_bytes))
-        throw tools::UsageError("--max-frame-bytes: '" + v + "' is not a size (like 64M)");
-    }
-    else if (a == "--max-bytes-in-flight")
-    {
-      const std::string v = value();
-      if (!stream::parseByteSize(v, o.max_bytes_in_flight))
-        throw tools::UsageError("--max-bytes-in-flight: '" + v + "' is not a size (like 1G)");
-    }
-    else if (a == "--read-timeout")
-      o.read_timeout = tools::parseDoubleFlag(a, value());
-    else if (a == "--policy")
-    {
-      const std::string p = value();
-      if (p != "block" && p != "drop-oldest")
-        throw tools::UsageError("--policy must be block or drop-oldest");
-      o.drop_oldest = p == "drop-oldest";
-    }
-    else if (a == "--workers")
-      o.workers = static_cast<int>(tools::parseIntFlag(a, value()));
-    else if (a == "--stats-interval")
-      o.stats_interval = tools::parseDoubleFlag(a, value());
-    else if (a == "--poll-ms")
-      o.poll_ms = static_cast<int>(tools::parseIntFlag(a, value()));
-    else if (a == "--once")
-      o.once = true;
-    else if (a == "--quiet" || a == "-q")
-      o.quiet = true;
-    else
+    else if (!tools::applyFilterFlag(a, value, o.params) && !applyNodeFlag(a, value, o))
       throw tools::UsageError("unknown option '" + a + "' (see --help)");
   }
-  if (o.queue < 1 || o.queue > 100000)
-    throw tools::UsageError("queue must be in [1, 100000]");
-  if (o.workers < 1 || o.workers > 256)
-    throw tools::UsageError("workers must be in [1, 256]");
-  if (!(o.stats_interval >= 0.0))
-    throw tools::UsageError("stats interval must be >= 0");
-  if (!(o.read_timeout >= 0.0 && o.read_timeout <= 86400.0))
-    throw tools::UsageError("read timeout must be in [0, 86400] seconds");
-  if (o.max_frame_bytes > o.max_bytes_in_flight)
-    throw tools::UsageError("--max-frame-bytes (" + std::to_string(o.max_frame_bytes) +
-                            ") exceeds --max-bytes-in-flight (" + std::to_string(o.max_bytes_in_flight) +
-                            "): a frame of the largest size could never be read");
-  if (o.poll_ms < 1 || o.poll_ms > 60000)
-    throw tools::UsageError("poll-ms must be in [1, 60000]");
-  const std::string why = validate(o.params);
-  if (!why.empty())
-    throw tools::UsageError(why);
-  try
-  {
-    parseEndpoint(o.source, true);
-    parseEndpoint(o.sink, false);
-  }
-  catch (const std::invalid_argument& e)
-  {
-    throw tools::UsageError(e.what());
-  }
+  checkOptions(o);
   return o;
 }
 

@@ -267,12 +267,11 @@ std::string fingerprintOf(const std::vector<std::string>& inputs, const Paramete
     const FileStamp stamp = stampOf(input);
     os << " in=" << fs::absolute(input, ec).string() << " size=" << stamp.size << " mtime=" << stamp.mtime;
   }
-  os << " terr=" << p.error_threshold << " alpha=" << p.feature_factor
-     << " k=" << p.k_neighbors << " form=" << toString(p.error_form) << " adaptive=" << p.adaptive
-     << " af=" << p.adaptive_factor << " cap=" << p.radius_cap_factor << " rep=" << p.max_representative_offset
-     << " repcut=" << p.representative_cutoff << " rough=" << p.max_roughness
-     << " gap=" << p.max_gap_factor
-     << " seed=" << p.seed << " mem=" << memory_limit;
+  // Every parameter that changes the output (parameter_table.h), at full precision.
+  for (const ParameterInfo& info : parameterTable())
+    if (info.changes_output)
+      os << ' ' << info.name << '=' << parameterText(info, p);
+  os << " memory-limit=" << memory_limit;
   return os.str();
 }
 

@@ -9,6 +9,7 @@
 
 #include <pcl_ecs/io/record_stream.h>
 #include <pcl_ecs/neighborhood.h>
+#include <pcl_ecs/parameter_table.h>
 #include <pcl_ecs/search/box_tree_search.h>
 #include <pcl_ecs/simplify_core.h>
 #include <pcl_ecs/spatial_order.h>
