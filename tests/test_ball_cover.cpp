@@ -2,6 +2,7 @@
 #include <pcl_ecs/stages/global_stats.h>
 #include <pcl_ecs/stages/gap_fill.h>
 #include <pcl_ecs/stages/quadric.h>
+#include <pcl_ecs/stages/kernel.h>
 
 #include <pcl_ecs/stages/density_weights.h>
 #include <pcl_ecs/stages/local_density.h>
@@ -18,52 +19,7 @@
 
 using namespace pcl_ecs_test;
 
-namespace
-{
-struct CoverRun
-{
-  CoverRun(const Cloud::Ptr& cloud, const pcl_ecs::Parameters& params, double terr,
-           std::vector<std::uint8_t> is_feature = {})
-    : cloud_(cloud)
-  {
-    const auto table = makeTable(cloud, params.k_neighbors);
-    normals = makeNormals(cloud, table);
-    pcl_ecs::computeDensityWeights(*cloud, table, weights);
-    feature = is_feature.empty() ? std::vector<std::uint8_t>(cloud->size(), 0) : std::move(is_feature);
-    tree.setInputCloud(cloud);
-    pcl_ecs::computeLocalDensity(*cloud, table, feature, tree, 2, density);
-    pcl_ecs::computeMeanCurvature(*cloud, normals, table, feature, 2, curvature);
-    pcl_ecs::coverWithBalls(input(), params, terr, out);
-  }
-  /// The means the method takes (the same GlobalStats as the filter and the tiled run).
-  pcl_ecs::GlobalStats stats() const
-  {
-    pcl_ecs::GlobalStats s;
-    s.addNonFeatures(density, weights, curvature, feature);
-    return s;
-  }
-  pcl_ecs::CoverInput input() const
-  {
-    return {*cloud_,
-            normals,
-            weights,
-            feature,
-            curvature,
-            density,
-            stats().meanAbsCurvature(),
-            stats().meanSpacing(),
-            stats().neighborhoodRadius(),
-            pcl_ecs::boundingBoxDiagonal(*cloud_),
-            tree};
-  }
-  Cloud::Ptr cloud_;
-  pcl_ecs::NormalList normals;
-  std::vector<double> weights, density, curvature;
-  std::vector<std::uint8_t> feature;
-  pcl::search::KdTree<pcl::PointXYZ> tree;
-  pcl_ecs::CoverOutput out;
-};
-}  // namespace
+#include "cover_fixture.h"
 
 TEST(BallCover, EveryPointIsOwnedAndCountsAddUp)
 {
@@ -252,158 +208,6 @@ TEST(BallCover, RoughBallsKeepTheirCentre)
   EXPECT_GT(switched, rough.size() / 5) << "the test shape must exercise the limit";
 }
 
-namespace
-{
-/// Distance from p to the nearest output point (feature points and representatives), brute force.
-double distanceToOutput(const Cloud& cloud, const std::vector<std::uint8_t>& feature,
-                        const pcl_ecs::CoverOutput& out, const Eigen::Vector3d& p)
-{
-  double best = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < cloud.size(); ++i)
-    if (feature[i])
-      best = std::min(best, (cloud[i].getVector3fMap().cast<double>() - p).norm());
-  for (const auto& b : out.balls)
-    best = std::min(best, (b.representative - p).norm());
-  return best;
-}
-}  // namespace
-
-TEST(GapFill, EveryPointEndsWithinTheGapAndTheCountsStayTotal)
-{
-  // Large balls on a plane (cap 8 neighbourhood radii, a loose T_err): their rims lie far from
-  // their representatives. After the fill every point is within the gap of the output.
-  auto cloud = randomPlane(4000, 1.0, 5);
-  pcl_ecs::Parameters p;
-  p.radius_cap_factor = 8.0;
-  CoverRun run(cloud, p, 0.2);
-  const pcl_ecs::CoverInput in = run.input();
-  const double gap = 0.3 * p.radius_cap_factor * in.neighborhood_radius;
-  const std::size_t before = run.out.balls.size();
-  double worst_before = 0.0;
-  for (const auto& q : *cloud)
-    worst_before = std::max(worst_before, distanceToOutput(*cloud, run.feature, run.out, q.getVector3fMap().cast<double>()));
-  ASSERT_GT(worst_before, gap) << "the test must start with gaps";
-
-  const std::size_t added = pcl_ecs::fillGaps(in, p, 0.2, gap, run.out);
-  EXPECT_GT(added, 0u);
-  EXPECT_EQ(run.out.balls.size(), before + added);
-  for (const auto& q : *cloud)
-    EXPECT_LE(distanceToOutput(*cloud, run.feature, run.out, q.getVector3fMap().cast<double>()), gap);
-  std::size_t replaced = 0;
-  for (std::size_t b = 0; b < run.out.balls.size(); ++b)
-  {
-    const auto& ball = run.out.balls[b];
-    replaced += ball.replaced;
-    if (b < before)
-      continue;
-    const auto c = static_cast<std::size_t>(ball.centre);
-    EXPECT_EQ(ball.radius, 0.0);
-    EXPECT_EQ(ball.replaced, 1u);
-    EXPECT_TRUE(ball.used_centre);
-    EXPECT_EQ(ball.attribute_source, ball.centre);
-    EXPECT_EQ(run.out.owner[c], static_cast<int>(b));
-    EXPECT_EQ(ball.representative, (*cloud)[c].getVector3fMap().cast<double>());
-    EXPECT_LE(ball.error, ball.tolerance);
-  }
-  EXPECT_EQ(replaced, cloud->size());
-  // Greedy in cloud order, but not wasteful: no two added points within the gap of each other.
-  for (std::size_t a = before; a < run.out.balls.size(); ++a)
-    for (std::size_t b = a + 1; b < run.out.balls.size(); ++b)
-      EXPECT_GT((run.out.balls[a].representative - run.out.balls[b].representative).norm(), gap);
-}
-
-TEST(GapFill, OffOrWideGapChangesNothingAndFeaturesCount)
-{
-  auto cloud = randomPlane(3000, 1.0, 6);
-  // The left half are "feature points": output points themselves, never filled around.
-  std::vector<std::uint8_t> feature(cloud->size(), 0);
-  for (std::size_t i = 0; i < cloud->size(); ++i)
-    feature[i] = (*cloud)[i].x < 0.0f ? 1 : 0;
-  pcl_ecs::Parameters p;
-  p.radius_cap_factor = 8.0;
-  CoverRun run(cloud, p, 0.2, feature);
-  const pcl_ecs::CoverInput in = run.input();
-  const std::size_t before = run.out.balls.size();
-  EXPECT_EQ(pcl_ecs::fillGaps(in, p, 0.2, 0.0, run.out), 0u);
-  EXPECT_EQ(pcl_ecs::fillGaps(in, p, 0.2, 10.0, run.out), 0u);  // wider than the plane
-  EXPECT_EQ(run.out.balls.size(), before);
-  const double gap = 0.3 * p.radius_cap_factor * in.neighborhood_radius;
-  ASSERT_GT(pcl_ecs::fillGaps(in, p, 0.2, gap, run.out), 0u);
-  for (std::size_t b = before; b < run.out.balls.size(); ++b)
-  {
-    const Eigen::Vector3d c = run.out.balls[b].representative;
-    EXPECT_GE(c.x(), 0.0);
-    double nearest_feature = std::numeric_limits<double>::infinity();
-    for (std::size_t i = 0; i < cloud->size(); ++i)
-      if (feature[i])
-        nearest_feature = std::min(nearest_feature, ((*cloud)[i].getVector3fMap().cast<double>() - c).norm());
-    EXPECT_GT(nearest_feature, gap) << "a point within the gap of a feature point is covered by it";
-  }
-}
-
-TEST(GapFill, ThreadCountDoesNotChangeTheResult)
-{
-  auto cloud = randomPlane(4000, 1.0, 7);
-  pcl_ecs::Parameters p;
-  p.radius_cap_factor = 8.0;
-  std::vector<Eigen::Vector3d> reps[2];
-  for (int k = 0; k < 2; ++k)
-  {
-    p.threads = k == 0 ? 1 : 4;
-    CoverRun run(cloud, p, 0.2);
-    const pcl_ecs::CoverInput in = run.input();
-    pcl_ecs::fillGaps(in, p, 0.2, 0.3 * p.radius_cap_factor * in.neighborhood_radius, run.out);
-    for (const auto& b : run.out.balls)
-      reps[k].push_back(b.representative);
-  }
-  EXPECT_EQ(reps[0], reps[1]);
-}
-
-TEST(GapFill, FarFromAndCloseGapsOnPlainPoints)
-{
-  // Outputs on a unit grid; candidates on a finer grid: "far" exactly when beyond the gap of every
-  // output (brute force), and the greedy keeps far candidates more than the gap apart, in order.
-  std::vector<Eigen::Vector3d> outputs, points;
-  for (int i = 0; i <= 4; ++i)
-    for (int j = 0; j <= 4; ++j)
-      outputs.emplace_back(i, j, 0.0);
-  for (int i = 0; i <= 40; ++i)
-    for (int j = 0; j <= 40; ++j)
-      points.emplace_back(0.1 * i, 0.1 * j, 0.05);
-  const double gap = 0.45;
-  const auto far = pcl_ecs::farFrom(outputs, points, gap, 3);
-  std::size_t far_count = 0;
-  for (std::size_t k = 0; k < points.size(); ++k)
-  {
-    double best = std::numeric_limits<double>::infinity();
-    for (const auto& o : outputs)
-      best = std::min(best, (o - points[k]).norm());
-    EXPECT_EQ(far[k] != 0, best > gap) << k;
-    far_count += far[k];
-  }
-  ASSERT_GT(far_count, 0u);
-  EXPECT_EQ(pcl_ecs::farFrom(outputs, points, 0.0, 3), std::vector<std::uint8_t>(points.size(), 0));
-  const auto kept = pcl_ecs::closeGaps(outputs, points, gap, 3);
-  ASSERT_FALSE(kept.empty());
-  EXPECT_TRUE(std::is_sorted(kept.begin(), kept.end()));
-  for (std::size_t a = 0; a < kept.size(); ++a)
-  {
-    EXPECT_TRUE(far[kept[a]]);
-    for (std::size_t b = a + 1; b < kept.size(); ++b)
-      EXPECT_GT((points[kept[a]] - points[kept[b]]).norm(), gap);
-  }
-  // Every far point ends within the gap of an output or a kept point.
-  for (std::size_t k = 0; k < points.size(); ++k)
-  {
-    if (!far[k])
-      continue;
-    double best = std::numeric_limits<double>::infinity();
-    for (const std::size_t c : kept)
-      best = std::min(best, (points[c] - points[k]).norm());
-    EXPECT_LE(best, gap) << k;
-  }
-}
-
 // Every loop of the cover that has an AVX2 build (square roots, candidate planes, the kernel's
 // pieces, the plane sums; and the K-table and curvature before it) gives the same bits without
 // it: the same balls, radii, representatives and owners.
@@ -427,4 +231,62 @@ TEST(BallCover, SameCoverWithAndWithoutAvx2)
   }
   EXPECT_EQ(differ, 0u);
   EXPECT_EQ(portable.out.owner, wide.out.owner);
+}
+
+// The representative rule (representativeOffset) on solutions whose minimiser is known.
+TEST(BallCover, RepresentativeIsTheMinimiserWithinTheOffsetElseTheCentre)
+{
+  pcl_ecs::Parameters params;
+  params.representative_cutoff = pcl_ecs::kQuadricCutoff;  // the solution's own minimiser
+  pcl_ecs::RadiusSolution sol;
+  sol.radius = 2.0;
+  sol.x_min = Eigen::Vector3d(0.0, 0.3, 0.8);  // |x| = 0.854 < 0.5 × 2
+  auto offset = pcl_ecs::representativeOffset(sol, 0.1, params);
+  ASSERT_TRUE(offset.has_value());
+  EXPECT_EQ(*offset, sol.x_min);
+  sol.x_min = Eigen::Vector3d(0.0, 0.0, 1.0);  // exactly 0.5 r: not strictly inside
+  EXPECT_FALSE(pcl_ecs::representativeOffset(sol, 0.1, params).has_value());
+  params.max_representative_offset = 1.0;  // the paper's rule: within r
+  EXPECT_TRUE(pcl_ecs::representativeOffset(sol, 0.1, params).has_value());
+  // Too rough to agree on a surface: the centre, wherever the minimiser is.
+  sol.x_min = Eigen::Vector3d::Zero();
+  EXPECT_TRUE(pcl_ecs::representativeOffset(sol, params.max_roughness, params).has_value());
+  EXPECT_FALSE(pcl_ecs::representativeOffset(sol, params.max_roughness * 1.01, params).has_value());
+  // The roughness: sqrt(Q(x_min) / sum of weights) / r.
+  sol.residual = 4.0;
+  sol.quadric.weight_sum = 4.0;
+  EXPECT_DOUBLE_EQ(pcl_ecs::ballRoughness(sol), 0.5);
+  sol.radius = 0.0;
+  EXPECT_EQ(pcl_ecs::ballRoughness(sol), 0.0);
+}
+
+// The attributes (ballAttributes): the member nearest the representative, the kernel-weighted
+// normal with the centre's sign.
+TEST(BallCover, AttributesComeFromTheNearestMemberAndTheWeightedNormals)
+{
+  pcl_ecs::NormalList normals(10, Eigen::Vector3f::UnitZ());
+  normals[7] = -Eigen::Vector3f::UnitZ();  // flipped: counted with the centre's sign
+  normals[9] = Eigen::Vector3f::UnitX();
+  const std::vector<int> members{5, 7, 9};
+  const std::vector<Eigen::Vector3d> offsets{Eigen::Vector3d::Zero(), Eigen::Vector3d(1, 0, 0),
+                                             Eigen::Vector3d(0.4, 0, 0)};
+  const std::vector<double> distances{0.0, 1.0, 0.4};
+  const double r = 1.5;
+  const pcl_ecs::BallAttributes a =
+      pcl_ecs::ballAttributes(members, offsets, distances, Eigen::Vector3d(0.5, 0, 0), normals, 5, r);
+  EXPECT_EQ(a.source, 9);  // 0.1 from the representative
+  const Eigen::Vector3d expected =
+      ((pcl_ecs::kernelG(0.0, r) + pcl_ecs::kernelG(1.0, r)) * Eigen::Vector3d::UnitZ() +
+       pcl_ecs::kernelG(0.4, r) * Eigen::Vector3d::UnitX())
+          .normalized();
+  EXPECT_NEAR((a.normal.cast<double>() - expected).norm(), 0.0, 1e-6);
+  // Two members at the same distance: the lower index.
+  const pcl_ecs::BallAttributes tie = pcl_ecs::ballAttributes(
+      {3, 2}, {Eigen::Vector3d(0.1, 0, 0), Eigen::Vector3d(-0.1, 0, 0)}, {0.1, 0.1}, Eigen::Vector3d::Zero(), normals, 3, r);
+  EXPECT_EQ(tie.source, 2);
+  // A ball of radius 0 (its centre alone): the centre's normal.
+  const pcl_ecs::BallAttributes alone =
+      pcl_ecs::ballAttributes({7}, {Eigen::Vector3d::Zero()}, {0.0}, Eigen::Vector3d::Zero(), normals, 7, 0.0);
+  EXPECT_EQ(alone.source, 7);
+  EXPECT_EQ(alone.normal, normals[7]);
 }

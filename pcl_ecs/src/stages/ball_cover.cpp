@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 
 #ifdef __SSE2__
 #include <emmintrin.h>
@@ -148,6 +149,55 @@ struct Scratch
   double typical_radius = 0.0;  // first query guess; adapts to the balls of this worker's cell
 };
 
+}  // namespace
+
+double ballRoughness(const RadiusSolution& sol)
+{
+  return sol.radius > 0.0 && sol.quadric.weight_sum > 0.0 ? std::sqrt(sol.residual / sol.quadric.weight_sum) / sol.radius
+                                                          : 0.0;
+}
+
+std::optional<Eigen::Vector3d> representativeOffset(const RadiusSolution& sol, double roughness, const Parameters& params)
+{
+  if (roughness > params.max_roughness)
+    return std::nullopt;  // the points do not agree on a surface: c stands for them
+  const Eigen::Vector3d x = params.representative_cutoff == kQuadricCutoff
+                                ? sol.x_min
+                                : minimizeQuadric(sol.quadric, params.representative_cutoff).x;
+  if (!(x.norm() < params.max_representative_offset * sol.radius))
+    return std::nullopt;  // outside the ball's core: a sharp feature slipped past the test
+  return x;
+}
+
+BallAttributes ballAttributes(const std::vector<int>& members, const std::vector<Eigen::Vector3d>& offsets,
+                              const std::vector<double>& distances, const Eigen::Vector3d& v_offset,
+                              const NormalList& normals, int centre, double radius)
+{
+  BallAttributes a;
+  const Eigen::Vector3d nc = normals[static_cast<std::size_t>(centre)].cast<double>();
+  Eigen::Vector3d normal_sum = Eigen::Vector3d::Zero();
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t m = 0; m < members.size(); ++m)
+  {
+    const double d = (offsets[m] - v_offset).squaredNorm();
+    if (d < best || (d == best && members[m] < a.source))
+    {
+      best = d;
+      a.source = members[m];
+    }
+    Eigen::Vector3d nm = normals[static_cast<std::size_t>(members[m])].cast<double>();
+    if (nm.dot(nc) < 0.0)
+      nm = -nm;
+    const double weight = radius > 0.0 ? kernelG(distances[m], radius) : 1.0;
+    normal_sum += weight * nm;
+  }
+  const double len = normal_sum.norm();
+  a.normal = (len > 0.0 ? Eigen::Vector3d(normal_sum / len) : nc).cast<float>();
+  return a;
+}
+
+namespace
+{
 /// Steps 4-6 for the centre c: solve the ball, then claim (owner = ball_key) the points it
 /// covers that nobody owns yet. Returns the ball.
 CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_threshold,
@@ -179,23 +229,11 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
   if (sol.radius > 0.0)
     w.typical_radius = 0.8 * w.typical_radius + 0.2 * sol.radius / class_scale;
 
-  // The representative: the minimiser of the ball's quadric along its well-determined directions
-  // (representative_cutoff; at the centre along the others), unless the points are too rough to
-  // agree on a surface (max_roughness) or it lies farther than max_representative_offset × r from
-  // c (the paper's rule is r itself: outside the ball means a sharp feature, and c stands for it).
-  ball.roughness = sol.radius > 0.0 && sol.quadric.weight_sum > 0.0
-                       ? std::sqrt(sol.residual / sol.quadric.weight_sum) / sol.radius
-                       : 0.0;
-  Eigen::Vector3d x_rep = Eigen::Vector3d::Zero();
-  ball.used_centre = tooRough(ball, params);
-  if (!ball.used_centre)
-  {
-    x_rep = params.representative_cutoff == kQuadricCutoff
-                ? sol.x_min
-                : minimizeQuadric(sol.quadric, params.representative_cutoff).x;
-    ball.used_centre = !(x_rep.norm() < params.max_representative_offset * sol.radius);
-  }
-  const Eigen::Vector3d v_offset = ball.used_centre ? Eigen::Vector3d::Zero() : x_rep;
+  // The representative (representativeOffset): the optimised point, or c itself.
+  ball.roughness = ballRoughness(sol);
+  const std::optional<Eigen::Vector3d> offset = representativeOffset(sol, ball.roughness, params);
+  ball.used_centre = !offset;
+  const Eigen::Vector3d v_offset = offset ? *offset : Eigen::Vector3d::Zero();
   ball.representative = centre + v_offset;
 
   // Members: the non-feature points within r (c among them, at distance 0).
@@ -226,25 +264,11 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
   }
 
   // Attributes: from the member nearest to v; normal averaged over the ball with c's sign.
+  const BallAttributes attributes =
+      ballAttributes(w.members, w.offsets, w.distances, v_offset, in.normals, c, sol.radius);
+  ball.attribute_source = attributes.source;
+  ball.normal = attributes.normal;
   const Eigen::Vector3d nc = in.normals[cs].cast<double>();
-  Eigen::Vector3d normal_sum = Eigen::Vector3d::Zero();
-  double best = std::numeric_limits<double>::infinity();
-  for (std::size_t m = 0; m < w.members.size(); ++m)
-  {
-    const double d = (w.offsets[m] - v_offset).squaredNorm();
-    if (d < best || (d == best && w.members[m] < ball.attribute_source))
-    {
-      best = d;
-      ball.attribute_source = w.members[m];
-    }
-    Eigen::Vector3d nm = in.normals[static_cast<std::size_t>(w.members[m])].cast<double>();
-    if (nm.dot(nc) < 0.0)
-      nm = -nm;
-    const double weight = sol.radius > 0.0 ? kernelG(w.distances[m], sol.radius) : 1.0;
-    normal_sum += weight * nm;
-  }
-  const double len = normal_sum.norm();
-  ball.normal = (len > 0.0 ? Eigen::Vector3d(normal_sum / len) : nc).cast<float>();
 
   // Step 6: cover c and the members projected strictly inside the hull.
   auto claim = [&](int idx) {

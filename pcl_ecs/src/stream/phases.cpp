@@ -13,17 +13,12 @@ namespace detail
 struct AttrView
 {
   const std::vector<std::uint8_t>& bytes;
-  Eigen::Vector3f normal(std::size_t i) const
-  {
-    Eigen::Vector3f n;
-    std::memcpy(n.data(), bytes.data() + i * kAttrBytes, 12);
-    return n;
-  }
+  PointAttr at(std::size_t i) const { return PointAttr::load(bytes.data() + i * kAttrBytes); }
+  Eigen::Vector3f normal(std::size_t i) const { return at(i).normal; }
   double value(std::size_t i, int which) const  // 0 weight, 1 measure, 2 curvature
   {
-    double v;
-    std::memcpy(&v, bytes.data() + i * kAttrBytes + 12 + 8 * which, 8);
-    return v;
+    const PointAttr a = at(i);
+    return which == 0 ? a.weight : which == 1 ? a.measure : a.curvature;
   }
   std::size_t size() const { return bytes.size() / kAttrBytes; }
   /// Eq. 4 with the global δ: the measure above δ.
@@ -68,11 +63,12 @@ void Runner::phaseA(int t)
   sums.merged = static_cast<double>(d.merged_core);
   for (std::size_t i = 0; i < n; ++i)
   {
-    std::uint8_t* a = attr.data() + i * kAttrBytes;
-    std::memcpy(a, normals[i].data(), 12);
-    std::memcpy(a + 12, &weights[i], 8);
-    std::memcpy(a + 20, &measure[i], 8);
-    std::memcpy(a + 28, &curvature[i], 8);
+    PointAttr a;
+    a.normal = normals[i];
+    a.weight = weights[i];
+    a.measure = measure[i];
+    a.curvature = curvature[i];
+    a.store(attr.data() + i * kAttrBytes);
     if (!d.is_core[i])
       continue;
     sums.stats.addMeasure(measure[i]);
@@ -103,7 +99,7 @@ void Runner::phaseA(int t)
   }
   std::vector<std::uint8_t> front_count(n, 0xFF);  // 0xFF: a halo point (not needed)
   std::vector<std::uint8_t> front;
-  front.reserve(n * 2 * 8);
+  front.reserve(n * 2 * FrontierEntry::kBytes);
   for (std::size_t i = 0; i < n; ++i)
   {
     if (!d.is_core[i])
@@ -118,12 +114,12 @@ void Runner::phaseA(int t)
       if (!(m < lowest))
         continue;
       lowest = m;
-      const float d2 = sqrDistance(*d.cloud, i, q);
-      const auto index = static_cast<std::uint32_t>(q);
+      FrontierEntry e;
+      e.d2 = sqrDistance(*d.cloud, i, q);
+      e.index = static_cast<std::uint32_t>(q);
       const std::size_t at = front.size();
-      front.resize(at + 8);
-      std::memcpy(front.data() + at, &d2, 4);
-      std::memcpy(front.data() + at + 4, &index, 4);
+      front.resize(at + FrontierEntry::kBytes);
+      e.store(front.data() + at);
       ++count;
       if (m <= not_feature)
         break;
@@ -169,16 +165,15 @@ void Runner::phaseB(int t)
         continue;  // a halo point
       const bool feature = attr.value(i, 1) > delta_;
       bool found = feature;
-      for (std::uint8_t e = 0; e < count; ++e, at += 8)
+      for (std::uint8_t e = 0; e < count; ++e, at += FrontierEntry::kBytes)
       {
         if (found)
           continue;
-        if (at + 8 > front.size())
+        if (at + FrontierEntry::kBytes > front.size())
           failDamaged(lists_damaged);
-        float d2;
-        std::uint32_t index;
-        std::memcpy(&d2, front.data() + at, 4);
-        std::memcpy(&index, front.data() + at + 4, 4);
+        const FrontierEntry entry = FrontierEntry::load(front.data() + at);
+        const float d2 = entry.d2;
+        const std::uint32_t index = entry.index;
         if (index >= n)
           failDamaged(lists_damaged);
         if (!(attr.value(index, 1) > delta_))

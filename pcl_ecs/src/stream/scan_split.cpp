@@ -84,7 +84,7 @@ std::uint64_t Runner::scanInput(io::RecordSource& reader, PlanningSample& sample
   }
   std::vector<std::uint8_t> out;
   if (copy_points)
-    out.reserve(kChunk * (8 + step));
+    out.reserve(kChunk * (SplitHeader::kCoreBytes + step));
   std::uint64_t gid = 0, finite = 0;
   std::size_t n;
   while ((n = reader.read(kChunk, chunk)) > 0)
@@ -99,8 +99,12 @@ std::uint64_t Runner::scanInput(io::RecordSource& reader, PlanningSample& sample
         continue;
       if (copy_points)
       {
-        const auto* g = reinterpret_cast<const std::uint8_t*>(&gid);
-        out.insert(out.end(), g, g + 8);
+        // points.bin: the split's core record layout (input index, then the record).
+        SplitHeader h;
+        h.gid = gid;
+        const std::size_t at = out.size();
+        out.resize(at + SplitHeader::kCoreBytes);
+        h.storeCore(out.data() + at);
         out.insert(out.end(), rec, rec + step);
       }
       ++finite;
@@ -304,7 +308,7 @@ void Runner::split()
   // the non-finite ones skipped again), else pass 1's copy (input index, record).
   const bool from_input = readTwice();
   const fs::path source = from_input ? fs::path(inputs_[0]) : paths_.points();
-  const std::size_t record = from_input ? step : 8 + step;
+  const std::size_t record = from_input ? step : SplitHeader::kCoreBytes + step;
   const std::uint64_t records = from_input ? plan_.input_points : plan_.finite_points;
   const std::uint64_t offset = from_input ? data_offset_ : 0;
   if (from_input)
@@ -415,8 +419,8 @@ void Runner::splitPart(const SplitJob& job, int part)
       std::uint64_t gid = at + i;
       if (!job.from_input)
       {
-        std::memcpy(&gid, rec, 8);
-        rec += 8;
+        gid = SplitHeader::loadCore(rec).gid;
+        rec += SplitHeader::kCoreBytes;
       }
       double c[3];
       xyz.get(rec, c[0], c[1], c[2]);
@@ -428,18 +432,23 @@ void Runner::splitPart(const SplitJob& job, int part)
       const int own = plan_.tree.locateAndNear(pt, plan_.halo, near);
       std::uint64_t& count = own_count[static_cast<std::size_t>(own)];
       // The index among the tile's own points found by this part; loadTile adds the earlier parts'.
-      const std::uint32_t src[2] = {static_cast<std::uint32_t>(own), static_cast<std::uint32_t>(count)};
+      SplitHeader header;
+      header.gid = gid;
+      header.tile = static_cast<std::uint32_t>(own);
+      header.index = static_cast<std::uint32_t>(count);
       if (++count >= std::numeric_limits<std::uint32_t>::max())
         failRun("a tile holds more than 4 billion points: raise --memory-limit less or split the input");
-      core[static_cast<std::size_t>(own)].put(&gid, 8);
+      std::uint8_t core_header[SplitHeader::kCoreBytes], halo_header[SplitHeader::kHaloBytes];
+      header.storeCore(core_header);
+      header.storeHalo(halo_header);
+      core[static_cast<std::size_t>(own)].put(core_header, SplitHeader::kCoreBytes);
       core[static_cast<std::size_t>(own)].put(rec, step);
       for (int t : near)
         if (t != own)
         {
           TileSink& s = halo[static_cast<std::size_t>(t)];
           ++halo_count[static_cast<std::size_t>(t)];
-          s.put(&gid, 8);
-          s.put(src, 8);
+          s.put(halo_header, SplitHeader::kHaloBytes);
           s.put(rec, step);
         }
     }
@@ -533,6 +542,7 @@ std::vector<std::uint32_t> Runner::hilbertOrder(const std::vector<std::uint64_t>
 TileData Runner::loadTile(int t) const
 {
   const std::size_t step = header_.point_step;
+  const std::size_t core_record = SplitHeader::kCoreBytes + step, halo_record = SplitHeader::kHaloBytes + step;
   const io::XyzAccess xyz(header_);
   // The parts of the split in turn. A halo record names its point's index among the points of
   // its own tile that the same part found: the earlier parts' counts come first.
@@ -543,30 +553,29 @@ TileData Runner::loadTile(int t) const
     appendFile(paths_.core(t, p), core);
     const std::size_t first = halo.size();
     appendFile(paths_.halo(t, p), halo);
-    if ((halo.size() - first) % (16 + step) != 0)
+    if ((halo.size() - first) % (halo_record) != 0)
       failDamaged("the halo files of tile " + std::to_string(t) + " do not hold whole points");
-    for (std::size_t at = first; at < halo.size(); at += 16 + step)
+    for (std::size_t at = first; at < halo.size(); at += halo_record)
     {
-      std::uint32_t src[2];
-      std::memcpy(src, halo.data() + at + 8, 8);
-      if (src[0] >= tile_parts.size())
+      SplitHeader h = SplitHeader::loadHalo(halo.data() + at);
+      if (h.tile >= tile_parts.size())
         failDamaged("the halo files of tile " + std::to_string(t) + " name a tile that does not exist");
       for (int q = 0; q < p; ++q)
-        src[1] += static_cast<std::uint32_t>(tile_parts[src[0]][static_cast<std::size_t>(q)]);
-      std::memcpy(halo.data() + at + 12, &src[1], 4);
+        h.index += static_cast<std::uint32_t>(tile_parts[h.tile][static_cast<std::size_t>(q)]);
+      h.storeHalo(halo.data() + at);
     }
   }
-  const std::size_t nc = core.size() / (8 + step), nh = halo.size() / (16 + step);
+  const std::size_t nc = core.size() / core_record, nh = halo.size() / halo_record;
   const Tile& tile = plan_.tree.tiles[static_cast<std::size_t>(t)];
-  if (core.size() % (8 + step) != 0 || nc != tile.core_points || nh != tile.halo_points)
+  if (core.size() % core_record != 0 || nc != tile.core_points || nh != tile.halo_points)
     failDamaged("the point files of tile " + std::to_string(t) + " do not hold the points the plan counted");
   const std::size_t n = nc + nh;
   auto at = [&](std::size_t i) -> const std::uint8_t* {
-    return i < nc ? core.data() + i * (8 + step) : halo.data() + (i - nc) * (16 + step);
+    return i < nc ? core.data() + i * core_record : halo.data() + (i - nc) * halo_record;
   };
   auto position = [&](std::size_t i) {
     Eigen::Vector3d p;
-    xyz.get(at(i) + (i < nc ? 8 : 16), p.x(), p.y(), p.z());
+    xyz.get(at(i) + (i < nc ? SplitHeader::kCoreBytes : SplitHeader::kHaloBytes), p.x(), p.y(), p.z());
     return p;
   };
   TileData d;
@@ -581,7 +590,7 @@ TileData Runner::loadTile(int t) const
     std::vector<Eigen::Vector3d> pos(n);  // by file order
     for (std::size_t i = 0; i < n; ++i)
     {
-      std::memcpy(&gids[i], at(i), 8);
+      gids[i] = SplitHeader::loadCore(at(i)).gid;  // a halo record starts the same way
       pos[i] = position(i);
     }
     d.order = hilbertOrder(gids, pos);
@@ -609,19 +618,21 @@ TileData Runner::loadTile(int t) const
     // From the record, which is fetched ahead (a position kept from the sort would be one more
     // scattered read).
     (*d.cloud)[o].getVector3fMap() = ((position(i) - origin) * scale).cast<float>();  // plan_.toLocal
-    std::memcpy(&d.gid[o], r, 8);
     d.is_core[o] = i < nc;
     if (i < nc)
     {
+      d.gid[o] = SplitHeader::loadCore(r).gid;
       d.src_tile[o] = static_cast<std::uint32_t>(t);
       d.src_index[o] = static_cast<std::uint32_t>(i);
-      std::memcpy(d.records.data() + o * step, r + 8, step);
+      std::memcpy(d.records.data() + o * step, r + SplitHeader::kCoreBytes, step);
     }
     else
     {
-      std::memcpy(&d.src_tile[o], r + 8, 4);
-      std::memcpy(&d.src_index[o], r + 12, 4);
-      std::memcpy(d.records.data() + o * step, r + 16, step);
+      const SplitHeader h = SplitHeader::loadHalo(r);
+      d.gid[o] = h.gid;
+      d.src_tile[o] = h.tile;
+      d.src_index[o] = h.index;
+      std::memcpy(d.records.data() + o * step, r + SplitHeader::kHaloBytes, step);
     }
   }
   return d;

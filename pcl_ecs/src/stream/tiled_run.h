@@ -110,7 +110,86 @@ constexpr double kPlanBytesPerSample = 160.0;    // the plan's memory per sample
 constexpr std::uint64_t kMinTilePoints = 20000;  // the smallest tile (own points + halo) worth running
 constexpr int kConcurrentTiles = 2;              // the plan assumes this many tiles in memory
 constexpr std::uint64_t kProcessAllowance = 48ull << 20;  // what the plan counts for the process itself
-constexpr std::size_t kAttrBytes = 12 + 3 * 8;   // normal (3 f32), weight, measure, curvature (f64)
+/// The tile store's records, each with its layout in one place (little-endian, packed; written and
+/// read only through store() / load()).
+///
+/// attr/T: per point of tile T, what step A computed: the normal (3 × f32), then the weight a_i
+/// (eq. 1), the feature measure (eq. 3) and the curvature H (eq. 11), each f64.
+struct PointAttr
+{
+  static constexpr std::size_t kBytes = 12 + 3 * 8;
+  Eigen::Vector3f normal = Eigen::Vector3f::Zero();
+  double weight = 0, measure = 0, curvature = 0;
+  void store(std::uint8_t* at) const
+  {
+    std::memcpy(at, normal.data(), 12);
+    std::memcpy(at + 12, &weight, 8);
+    std::memcpy(at + 20, &measure, 8);
+    std::memcpy(at + 28, &curvature, 8);
+  }
+  static PointAttr load(const std::uint8_t* at)
+  {
+    PointAttr a;
+    std::memcpy(a.normal.data(), at, 12);
+    std::memcpy(&a.weight, at + 12, 8);
+    std::memcpy(&a.measure, at + 20, 8);
+    std::memcpy(&a.curvature, at + 28, 8);
+    return a;
+  }
+};
+constexpr std::size_t kAttrBytes = PointAttr::kBytes;
+
+/// frontier/T: per own point, its neighbours whose measure is below that of every nearer one, as
+/// (squared distance f32, index in the tile u32) entries.
+struct FrontierEntry
+{
+  static constexpr std::size_t kBytes = 8;
+  float d2 = 0;
+  std::uint32_t index = 0;
+  void store(std::uint8_t* at) const
+  {
+    std::memcpy(at, &d2, 4);
+    std::memcpy(at + 4, &index, 4);
+  }
+  static FrontierEntry load(const std::uint8_t* at)
+  {
+    FrontierEntry e;
+    std::memcpy(&e.d2, at, 4);
+    std::memcpy(&e.index, at + 4, 4);
+    return e;
+  }
+};
+
+/// tiles/T.core.P and tiles/T.halo.P: the split's records. A core record is the point's input
+/// index (u64) and its input record; a halo record is the input index, the tile that owns the
+/// point and its index among that tile's points (u32 each), then the input record.
+struct SplitHeader
+{
+  static constexpr std::size_t kCoreBytes = 8, kHaloBytes = 16;
+  std::uint64_t gid = 0;
+  std::uint32_t tile = 0, index = 0;  ///< halo records only
+  void storeCore(std::uint8_t* at) const { std::memcpy(at, &gid, 8); }
+  void storeHalo(std::uint8_t* at) const
+  {
+    std::memcpy(at, &gid, 8);
+    std::memcpy(at + 8, &tile, 4);
+    std::memcpy(at + 12, &index, 4);
+  }
+  static SplitHeader loadCore(const std::uint8_t* at)
+  {
+    SplitHeader h;
+    std::memcpy(&h.gid, at, 8);
+    return h;
+  }
+  static SplitHeader loadHalo(const std::uint8_t* at)
+  {
+    SplitHeader h;
+    std::memcpy(&h.gid, at, 8);
+    std::memcpy(&h.tile, at + 8, 4);
+    std::memcpy(&h.index, at + 12, 4);
+    return h;
+  }
+};
 
 inline double secondsSince(Clock::time_point t0)
 {

@@ -123,17 +123,9 @@ namespace
 std::size_t countNonManifoldVertices(std::size_t num_points, const std::vector<Triangle>& triangles)
 {
   std::size_t bad = 0;
-  std::vector<std::uint32_t> offset(num_points + 1, 0);
-  for (const Triangle& tri : triangles)
-    for (std::uint32_t x : tri)
-      ++offset[x + 1];
-  for (std::size_t v = 0; v < num_points; ++v)
-    offset[v + 1] += offset[v];
-  std::vector<std::uint32_t> star(offset.back());
-  std::vector<std::uint32_t> fill(offset.begin(), offset.end() - 1);
-  for (std::uint32_t t = 0; t < triangles.size(); ++t)
-    for (std::uint32_t x : triangles[t])
-      star[fill[x]++] = t;
+  const VertexStars stars = vertexStars(num_points, triangles);
+  const std::vector<std::uint32_t>& offset = stars.offset;
+  const std::vector<std::uint32_t>& star = stars.star;
   for (std::size_t v = 0; v < num_points; ++v)
   {
     const std::uint32_t s = offset[v], e = offset[v + 1];

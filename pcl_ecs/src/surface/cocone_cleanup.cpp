@@ -57,19 +57,9 @@ std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n)
   // Vertex fans: a vertex keeps its largest fan (triangles connected through edges at it). Removing
   // a fan can split a neighbour's star, so the neighbours are looked at again (a work list).
   {
-    std::vector<std::uint32_t> off(n + 1, 0);
-    for (std::uint32_t t = 0; t < out.size(); ++t)
-      if (keep[t])
-        for (std::uint32_t x : out[t])
-          ++off[x + 1];
-    for (std::size_t v = 0; v < n; ++v)
-      off[v + 1] += off[v];
-    std::vector<std::uint32_t> star(off.back());
-    std::vector<std::uint32_t> pos(off.begin(), off.end() - 1);
-    for (std::uint32_t t = 0; t < out.size(); ++t)
-      if (keep[t])
-        for (std::uint32_t x : out[t])
-          star[pos[x]++] = t;
+    const VertexStars stars = vertexStars(n, out, &keep);
+    const std::vector<std::uint32_t>& off = stars.offset;
+    const std::vector<std::uint32_t>& star = stars.star;
     std::deque<std::uint32_t> work;
     std::vector<char> queued(n, 0);
     for (std::uint32_t v = 0; v < n; ++v)

@@ -122,6 +122,33 @@ inline std::uint32_t apex(const Triangle& t, std::uint32_t a, std::uint32_t b)
   return t[0];
 }
 
+/// The triangles around every vertex (compressed rows): star[offset[v] .. offset[v + 1]) are the
+/// triangles holding v, in triangle order; only the triangles t with keep[t] when `keep` is given.
+struct VertexStars
+{
+  std::vector<std::uint32_t> offset, star;
+};
+
+inline VertexStars vertexStars(std::size_t num_points, const std::vector<Triangle>& triangles,
+                               const std::vector<char>* keep = nullptr)
+{
+  VertexStars s;
+  s.offset.assign(num_points + 1, 0);
+  for (std::uint32_t t = 0; t < triangles.size(); ++t)
+    if (!keep || (*keep)[t])
+      for (std::uint32_t x : triangles[t])
+        ++s.offset[x + 1];
+  for (std::size_t v = 0; v < num_points; ++v)
+    s.offset[v + 1] += s.offset[v];
+  s.star.resize(s.offset.back());
+  std::vector<std::uint32_t> fill(s.offset.begin(), s.offset.end() - 1);
+  for (std::uint32_t t = 0; t < triangles.size(); ++t)
+    if (!keep || (*keep)[t])
+      for (std::uint32_t x : triangles[t])
+        s.star[fill[x]++] = t;
+  return s;
+}
+
 struct UnionFind
 {
   std::vector<std::uint32_t> parent;

@@ -21,9 +21,11 @@
 #pragma once
 
 #include <pcl_ecs/parameters.h>
+#include <pcl_ecs/stages/radius_solver.h>
 #include <pcl_ecs/types.h>
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include <pcl/search/search.h>
@@ -76,6 +78,34 @@ inline bool tooRough(const CoverBall& ball, const Parameters& params)
 {
   return ball.roughness > params.max_roughness;
 }
+
+/** \brief How far a ball's points scatter about the quadric's minimiser: sqrt(Q(x_min) / sum
+ * of weights) / r (0 for a ball of radius 0). */
+double ballRoughness(const RadiusSolution& sol);
+
+/** \brief The representative rule: the optimised point's offset from the centre c, or nothing
+ * when c itself stands for the ball. The optimised point is the minimiser of the ball's quadric
+ * along its directions whose eigenvalue is above representative_cutoff × the largest (across the
+ * surface, not along it); c stands for the ball when its points are too rough to agree on a
+ * surface (roughness > max_roughness) or the optimised point lies max_representative_offset × r
+ * or farther from c (the paper's rule is r itself: a sharp feature slipped past the feature test). */
+std::optional<Eigen::Vector3d> representativeOffset(const RadiusSolution& sol, double roughness,
+                                                    const Parameters& params);
+
+/** \brief What a representative carries besides its position. */
+struct BallAttributes
+{
+  int source = -1;  ///< the member nearest to the representative (ties: the lower index)
+  Eigen::Vector3f normal = Eigen::Vector3f::UnitZ();  ///< the members' normals, c's sign, kernel-weighted
+};
+
+/** \brief The attributes of a ball whose members (point indices, offsets from the centre and
+ * distances to it) and representative offset `v_offset` are given: the record of the member
+ * nearest to the representative, and the members' normals turned to the centre's side, weighted
+ * by the kernel G of the radius (equally for a ball of radius 0) and normalised. */
+BallAttributes ballAttributes(const std::vector<int>& members, const std::vector<Eigen::Vector3d>& offsets,
+                              const std::vector<double>& distances, const Eigen::Vector3d& v_offset,
+                              const NormalList& normals, int centre, double radius);
 
 /** \brief The cover. */
 struct CoverOutput

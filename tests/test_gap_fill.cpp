@@ -1,0 +1,164 @@
+// gap_fill.h: after the cover, no input point farther than the gap bound from the output.
+#include <pcl_ecs/stages/gap_fill.h>
+
+#include "cover_fixture.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <limits>
+
+using namespace pcl_ecs_test;
+
+namespace
+{
+/// Distance from p to the nearest output point (feature points and representatives), brute force.
+double distanceToOutput(const Cloud& cloud, const std::vector<std::uint8_t>& feature,
+                        const pcl_ecs::CoverOutput& out, const Eigen::Vector3d& p)
+{
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (feature[i])
+      best = std::min(best, (cloud[i].getVector3fMap().cast<double>() - p).norm());
+  for (const auto& b : out.balls)
+    best = std::min(best, (b.representative - p).norm());
+  return best;
+}
+}  // namespace
+
+TEST(GapFill, EveryPointEndsWithinTheGapAndTheCountsStayTotal)
+{
+  // Large balls on a plane (cap 8 neighbourhood radii, a loose T_err): their rims lie far from
+  // their representatives. After the fill every point is within the gap of the output.
+  auto cloud = randomPlane(4000, 1.0, 5);
+  pcl_ecs::Parameters p;
+  p.radius_cap_factor = 8.0;
+  CoverRun run(cloud, p, 0.2);
+  const pcl_ecs::CoverInput in = run.input();
+  const double gap = 0.3 * p.radius_cap_factor * in.neighborhood_radius;
+  const std::size_t before = run.out.balls.size();
+  double worst_before = 0.0;
+  for (const auto& q : *cloud)
+    worst_before = std::max(worst_before, distanceToOutput(*cloud, run.feature, run.out, q.getVector3fMap().cast<double>()));
+  ASSERT_GT(worst_before, gap) << "the test must start with gaps";
+
+  const std::size_t added = pcl_ecs::fillGaps(in, p, 0.2, gap, run.out);
+  EXPECT_GT(added, 0u);
+  EXPECT_EQ(run.out.balls.size(), before + added);
+  for (const auto& q : *cloud)
+    EXPECT_LE(distanceToOutput(*cloud, run.feature, run.out, q.getVector3fMap().cast<double>()), gap);
+  std::size_t replaced = 0;
+  for (std::size_t b = 0; b < run.out.balls.size(); ++b)
+  {
+    const auto& ball = run.out.balls[b];
+    replaced += ball.replaced;
+    if (b < before)
+      continue;
+    const auto c = static_cast<std::size_t>(ball.centre);
+    EXPECT_EQ(ball.radius, 0.0);
+    EXPECT_EQ(ball.replaced, 1u);
+    EXPECT_TRUE(ball.used_centre);
+    EXPECT_EQ(ball.attribute_source, ball.centre);
+    EXPECT_EQ(run.out.owner[c], static_cast<int>(b));
+    EXPECT_EQ(ball.representative, (*cloud)[c].getVector3fMap().cast<double>());
+    EXPECT_LE(ball.error, ball.tolerance);
+  }
+  EXPECT_EQ(replaced, cloud->size());
+  // Greedy in cloud order, but not wasteful: no two added points within the gap of each other.
+  for (std::size_t a = before; a < run.out.balls.size(); ++a)
+    for (std::size_t b = a + 1; b < run.out.balls.size(); ++b)
+      EXPECT_GT((run.out.balls[a].representative - run.out.balls[b].representative).norm(), gap);
+}
+
+TEST(GapFill, OffOrWideGapChangesNothingAndFeaturesCount)
+{
+  auto cloud = randomPlane(3000, 1.0, 6);
+  // The left half are "feature points": output points themselves, never filled around.
+  std::vector<std::uint8_t> feature(cloud->size(), 0);
+  for (std::size_t i = 0; i < cloud->size(); ++i)
+    feature[i] = (*cloud)[i].x < 0.0f ? 1 : 0;
+  pcl_ecs::Parameters p;
+  p.radius_cap_factor = 8.0;
+  CoverRun run(cloud, p, 0.2, feature);
+  const pcl_ecs::CoverInput in = run.input();
+  const std::size_t before = run.out.balls.size();
+  EXPECT_EQ(pcl_ecs::fillGaps(in, p, 0.2, 0.0, run.out), 0u);
+  EXPECT_EQ(pcl_ecs::fillGaps(in, p, 0.2, 10.0, run.out), 0u);  // wider than the plane
+  EXPECT_EQ(run.out.balls.size(), before);
+  const double gap = 0.3 * p.radius_cap_factor * in.neighborhood_radius;
+  ASSERT_GT(pcl_ecs::fillGaps(in, p, 0.2, gap, run.out), 0u);
+  for (std::size_t b = before; b < run.out.balls.size(); ++b)
+  {
+    const Eigen::Vector3d c = run.out.balls[b].representative;
+    EXPECT_GE(c.x(), 0.0);
+    double nearest_feature = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < cloud->size(); ++i)
+      if (feature[i])
+        nearest_feature = std::min(nearest_feature, ((*cloud)[i].getVector3fMap().cast<double>() - c).norm());
+    EXPECT_GT(nearest_feature, gap) << "a point within the gap of a feature point is covered by it";
+  }
+}
+
+TEST(GapFill, ThreadCountDoesNotChangeTheResult)
+{
+  auto cloud = randomPlane(4000, 1.0, 7);
+  pcl_ecs::Parameters p;
+  p.radius_cap_factor = 8.0;
+  std::vector<Eigen::Vector3d> reps[2];
+  for (int k = 0; k < 2; ++k)
+  {
+    p.threads = k == 0 ? 1 : 4;
+    CoverRun run(cloud, p, 0.2);
+    const pcl_ecs::CoverInput in = run.input();
+    pcl_ecs::fillGaps(in, p, 0.2, 0.3 * p.radius_cap_factor * in.neighborhood_radius, run.out);
+    for (const auto& b : run.out.balls)
+      reps[k].push_back(b.representative);
+  }
+  EXPECT_EQ(reps[0], reps[1]);
+}
+
+TEST(GapFill, FarFromAndCloseGapsOnPlainPoints)
+{
+  // Outputs on a unit grid; candidates on a finer grid: "far" exactly when beyond the gap of every
+  // output (brute force), and the greedy keeps far candidates more than the gap apart, in order.
+  std::vector<Eigen::Vector3d> outputs, points;
+  for (int i = 0; i <= 4; ++i)
+    for (int j = 0; j <= 4; ++j)
+      outputs.emplace_back(i, j, 0.0);
+  for (int i = 0; i <= 40; ++i)
+    for (int j = 0; j <= 40; ++j)
+      points.emplace_back(0.1 * i, 0.1 * j, 0.05);
+  const double gap = 0.45;
+  const auto far = pcl_ecs::farFrom(outputs, points, gap, 3);
+  std::size_t far_count = 0;
+  for (std::size_t k = 0; k < points.size(); ++k)
+  {
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& o : outputs)
+      best = std::min(best, (o - points[k]).norm());
+    EXPECT_EQ(far[k] != 0, best > gap) << k;
+    far_count += far[k];
+  }
+  ASSERT_GT(far_count, 0u);
+  EXPECT_EQ(pcl_ecs::farFrom(outputs, points, 0.0, 3), std::vector<std::uint8_t>(points.size(), 0));
+  const auto kept = pcl_ecs::closeGaps(outputs, points, gap, 3);
+  ASSERT_FALSE(kept.empty());
+  EXPECT_TRUE(std::is_sorted(kept.begin(), kept.end()));
+  for (std::size_t a = 0; a < kept.size(); ++a)
+  {
+    EXPECT_TRUE(far[kept[a]]);
+    for (std::size_t b = a + 1; b < kept.size(); ++b)
+      EXPECT_GT((points[kept[a]] - points[kept[b]]).norm(), gap);
+  }
+  // Every far point ends within the gap of an output or a kept point.
+  for (std::size_t k = 0; k < points.size(); ++k)
+  {
+    if (!far[k])
+      continue;
+    double best = std::numeric_limits<double>::infinity();
+    for (const std::size_t c : kept)
+      best = std::min(best, (points[c] - points[k]).norm());
+    EXPECT_LE(best, gap) << k;
+  }
+}
+
