@@ -40,17 +40,8 @@ struct CoverRun
   }
   pcl_ecs::CoverInput input() const
   {
-    return {*cloud_,
-            normals,
-            weights,
-            feature,
-            curvature,
-            density,
-            stats().meanAbsCurvature(),
-            stats().meanSpacing(),
-            stats().neighborhoodRadius(),
-            pcl_ecs::boundingBoxDiagonal(*cloud_),
-            tree};
+    return pcl_ecs::makeCoverInput(*cloud_, normals, weights, feature, curvature, density, stats(),
+                                   pcl_ecs::boundingBoxDiagonal(*cloud_), tree);
   }
   Cloud::Ptr cloud_;
   pcl_ecs::NormalList normals;

@@ -334,9 +334,8 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
 
   t = Clock::now();
   report("cover", 0.0);
-  const CoverInput in{cloud,         out.normals,          out.weights,    out.is_feature,
-                      out.curvature, out.density,          s.mean_abs_curvature,
-                      s.mean_spacing, s.neighborhood_radius, s.bbox_diagonal, tree};
+  const CoverInput in = makeCoverInput(cloud, out.normals, out.weights, out.is_feature, out.curvature, out.density,
+                                       stats, s.bbox_diagonal, tree);
   if (params.target_size == 0)
     coverAtThreshold(in, params, out);
   else

@@ -109,8 +109,8 @@ struct Parameters
 
   /** \brief The gap bound in target-size mode, as a multiple of the cap the target implies
    * (target_radius_cap; max_gap_factor applies when that is 0). Tighter than in the T_err mode:
-   * at a given output size it lowers the coverage max by a fifth to a half where large balls meet
-   * (flat regions, scan borders; docs/RESULTS.md). When the size cannot be reached with it, the
+   * at a given output size it lowers the coverage max where large balls meet (flat regions, scan
+   * borders; docs/RESULTS.md). When the size cannot be reached with it, the
    * search widens it in ×1.1 steps up to the cap. 0 turns it off. Range: 0 or (0, 100]. Default 0.6. */
   double target_gap_factor = 0.6;
 

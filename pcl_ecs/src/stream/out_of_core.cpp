@@ -227,13 +227,11 @@ int Runner::globalsAfterB(bool warn)
   const TileSumsB b = TileSumsB::from(
       tileTotals(paths_.totalB(), tiles, TileSumsB::kValues, [&](int t) { return paths_.sumB(t); }));
   summary_.search_fallback_tiles = static_cast<std::uint64_t>(b.searched);
-  mean_spacing_ = b.stats.meanSpacing();
-  neighborhood_radius_ = b.stats.neighborhoodRadius();
-  mean_abs_h_ = b.stats.meanAbsCurvature();
-  summary_.mean_spacing = mean_spacing_ / plan_.scale();
-  summary_.neighborhood_radius = neighborhood_radius_ / plan_.scale();
-  summary_.mean_abs_curvature = mean_abs_h_ * plan_.scale();
-  cap_ = params_.radius_cap_factor * neighborhood_radius_;  // local units, as every phase's lengths
+  stats_ = b.stats;  // the whole scan's sums for eq. 6, 1 and 12 (the cover's means)
+  summary_.mean_spacing = stats_.meanSpacing() / plan_.scale();
+  summary_.neighborhood_radius = stats_.neighborhoodRadius() / plan_.scale();
+  summary_.mean_abs_curvature = stats_.meanAbsCurvature() * plan_.scale();
+  cap_ = params_.radius_cap_factor * stats_.neighborhoodRadius();  // local units, as every phase's lengths
   const double cap_world = cap_ / plan_.scale();
   if (cap_world > plan_.halo)
   {
@@ -248,7 +246,7 @@ int Runner::globalsAfterB(bool warn)
 
 void Runner::listClaims()
 {
-  // The claims written so far (phaseC keeps those of earlier colours).
+  // The claims written so far (coverTask keeps those of earlier colours).
   std::error_code ec;
   claim_writers_.clear();
   for (const auto& e : fs::directory_iterator(paths_.root / "c", ec))
@@ -279,12 +277,12 @@ StreamSummary Runner::run()
 
   // Phase A, then δ over all points.
   runStage("A (neighbourhoods, normals, eq. 1-3, 7-11)", 2, pending([&](int t) { return paths_.sumA(t); }),
-           [&](int t) { phaseA(t); });
+           [&](int t) { geometryTask(t); });
   globalsAfterA();
   track_scratch();
 
   // Phase B, then the means of eq. 6 and 12 and the radius unit over all non-feature points.
-  runStage("B (features, eq. 5)", 3, pending([&](int t) { return paths_.sumB(t); }), [&](int t) { phaseB(t); });
+  runStage("B (features, eq. 5)", 3, pending([&](int t) { return paths_.sumB(t); }), [&](int t) { densityTask(t); });
   const int colours = globalsAfterB(true);
   track_scratch();
 
@@ -298,7 +296,7 @@ StreamSummary Runner::run()
         todo.push_back(t);
     listClaims();
     const std::string name = "C (cover, colour " + std::to_string(c + 1) + "/" + std::to_string(colours) + ")";
-    runStage(name.c_str(), 4, todo, [&](int t) { phaseC(t); });
+    runStage(name.c_str(), 4, todo, [&](int t) { coverTask(t); });
   }
   if (params_.max_gap_factor > 0.0)
     for (int c = 0; c < colours; ++c)
@@ -308,7 +306,7 @@ StreamSummary Runner::run()
         if (plan_.tree.tiles[static_cast<std::size_t>(t)].colour == c && !fs::exists(paths_.doneD(t)))
           todo.push_back(t);
       const std::string name = "D (gaps, colour " + std::to_string(c + 1) + "/" + std::to_string(colours) + ")";
-      runStage(name.c_str(), 4, todo, [&](int t) { phaseD(t); });
+      runStage(name.c_str(), 4, todo, [&](int t) { gapTask(t); });
     }
   track_scratch();
   finishRun();
@@ -350,13 +348,13 @@ bool Runner::runTask(char stage, int t)
   case 'A':
     if (done(paths_.sumA(t)))
       return false;
-    phaseA(t);
+    geometryTask(t);
     break;
   case 'B':
     if (done(paths_.sumB(t)))
       return false;
     globalsAfterA();
-    phaseB(t);
+    densityTask(t);
     break;
   case 'C':
   case 'D':
@@ -369,10 +367,10 @@ bool Runner::runTask(char stage, int t)
       std::error_code ec;
       fs::create_directories(paths_.root / "c", ec);
       listClaims();
-      phaseC(t);
+      coverTask(t);
     }
     else
-      phaseD(t);
+      gapTask(t);
     break;
   default: failRun(std::string("no stage '") + stage + "' (A, B, C, D)");
   }

@@ -33,7 +33,7 @@ struct AttrView
   }
 };
 
-void Runner::phaseA(int t)
+void Runner::geometryTask(int t)
 {
   TileData d = loadTile(t);
   const std::size_t n = d.size();
@@ -141,7 +141,7 @@ void Runner::phaseA(int t)
   measure_done_ += sums.stats.measure_sum;
 }
 
-void Runner::phaseB(int t)
+void Runner::densityTask(int t)
 {
   const auto attr_bytes = readVector<std::uint8_t>(paths_.attr(t));
   const AttrView attr{attr_bytes};
@@ -222,7 +222,7 @@ void Runner::phaseB(int t)
   dropScratch({paths_.frontier(t)});
 }
 
-void Runner::phaseC(int t)
+void Runner::coverTask(int t)
 {
   TileData d = loadTile(t);
   const std::size_t n = d.size();
@@ -248,8 +248,8 @@ void Runner::phaseC(int t)
 
   BoxTreeSearch tree(/*sorted=*/false, tile_threads_);  // unsorted radius results; a tile is in Hilbert order
   tree.setInputCloud(d.cloud);
-  CoverInput in{*d.cloud,          normals,      weights,     is_feature, curvature, density, mean_abs_h_,
-                mean_spacing_,     neighborhood_radius_, summary_.bbox_diagonal * plan_.scale(), tree};
+  CoverInput in = makeCoverInput(*d.cloud, normals, weights, is_feature, curvature, density, stats_,
+                                 summary_.bbox_diagonal * plan_.scale(), tree);
   in.centre_allowed = &d.is_core;
   in.pre_covered = &pre_covered;
   Parameters p = params_;
@@ -420,7 +420,7 @@ void Runner::setRecordNormal(std::uint8_t* rec, Eigen::Vector3f nrm, const Eigen
 // still farther than the gap from every output point near them (the covers of the tiles within the
 // gap, the gap points of those of earlier colours) become output points, greedily in the tile's
 // order. Tiles of one colour are more than two radius caps apart: their gap points cannot interact.
-void Runner::phaseD(int t)
+void Runner::gapTask(int t)
 {
   const double gap = params_.max_gap_factor * cap_;
   const std::size_t step = header_.point_step;

@@ -540,9 +540,17 @@ private:
   /// by Hilbert code in the global box, ties by input index, coincident points left out.
   std::vector<std::uint32_t> hilbertOrder(const std::vector<std::uint64_t>& gids,
                                           const std::vector<Eigen::Vector3d>& pos) const;
-  void phaseA(int t);
-  void phaseB(int t);
-  void phaseC(int t);
+  /// The tasks of one tile, named for what they compute; each reads its inputs from the scratch
+  /// and writes its outputs there atomically (the stage letter of runTask and of the scratch
+  /// directories in brackets).
+  /// [A] neighbourhoods, normals, weights, feature measure and curvature (eq. 1-3, 7-11), the
+  /// tile's sums for δ, and each point's neighbours for eq. 5.
+  void geometryTask(int t);
+  /// [B] eq. 5 with the global δ, and the tile's sums for the means of eq. 6, 1 and 12.
+  void densityTask(int t);
+  /// [C] the cover (steps 2-7) of the tile's own points, its output records, its claims on other
+  /// tiles' points, and its gap candidates.
+  void coverTask(int t);
   /// Per point of tile t: 1 when a ball of a tile of an earlier colour covered it (their claims).
   std::vector<std::uint8_t> coveredByEarlierColours(int t, const TileData& d) const;
   /// The points tile t's balls covered, by the tile that owns them (claims files).
@@ -551,7 +559,8 @@ private:
   /// point the tile knows (phase D's candidates).
   std::vector<std::uint8_t> gapCandidates(const TileData& d, const std::vector<std::uint8_t>& is_feature,
                                           const NormalList& normals, const CoverOutput& cover) const;
-  void phaseD(int t);
+  /// [D] the gap bound over the tile's candidates, colour by colour.
+  void gapTask(int t);
   /// Writes nrm (turned towards the viewpoint as seen from `at`, local frame) into the record's
   /// normal fields, when the input has them.
   void setRecordNormal(std::uint8_t* rec, Eigen::Vector3f nrm, const Eigen::Vector3d& at) const;
@@ -588,7 +597,8 @@ private:
   /// Claim files present when the current colour started: target tile -> writers (ascending).
   std::map<int, std::vector<int>> claim_writers_;
   // global statistics
-  double delta_ = 0.0, mean_spacing_ = 0.0, mean_abs_h_ = 0.0, neighborhood_radius_ = 0.0, cap_ = 0.0;
+  double delta_ = 0.0, cap_ = 0.0;
+  GlobalStats stats_;  ///< step B's sums over the whole scan
   Eigen::Vector3d viewpoint_local_ = Eigen::Vector3d::Zero();
   std::array<int, 3> normal_fields_{{-1, -1, -1}};  // normal_x/y/z in the records, -1: absent
 };

@@ -21,6 +21,7 @@
 #pragma once
 
 #include <pcl_ecs/parameters.h>
+#include <pcl_ecs/stages/global_stats.h>
 #include <pcl_ecs/stages/radius_solver.h>
 #include <pcl_ecs/types.h>
 
@@ -56,6 +57,27 @@ struct CoverInput
   /// they still shape the quadrics but are neither centres nor claimed again (owner stays -1)
   const std::vector<std::uint8_t>* pre_covered = nullptr;
 };
+
+/** \brief The cover's input: the per-point values of eq. 1-12 and the means over the whole cloud
+ * that `stats` holds (eq. 6, 12 and the radius unit), as the filter and every tile of the
+ * out-of-core run take them. */
+inline CoverInput makeCoverInput(const LocalCloud& cloud, const NormalList& normals, const std::vector<double>& weights,
+                                 const std::vector<std::uint8_t>& is_feature, const std::vector<double>& curvature,
+                                 const std::vector<double>& density, const GlobalStats& stats, double bbox_diagonal,
+                                 const pcl::search::Search<pcl::PointXYZ>& search)
+{
+  return {cloud,
+          normals,
+          weights,
+          is_feature,
+          curvature,
+          density,
+          stats.meanAbsCurvature(),
+          stats.meanSpacing(),
+          stats.neighborhoodRadius(),
+          bbox_diagonal,
+          search};
+}
 
 /** \brief One ball, in local-frame coordinates. */
 struct CoverBall
