@@ -22,11 +22,6 @@ if [ "${1:-}" != "--tools" ]; then
     xvfb xauth libgl1-mesa-dri  # offscreen screenshots of the viewer (tests and README pictures)
   )
 fi
-  pcl-tools                 # pcl_pcd2ply: the interop test reads our outputs with PCL's own tools
-  clang libclang-rt-14-dev  # libFuzzer for the loader fuzz target
-  python3 python3-venv       # the Python tests run in a venv (tests/python/requirements.txt)
-  xvfb xauth libgl1-mesa-dri  # offscreen screenshots of the viewer (tests and README pictures)
-)
 # cargo builds the LAZ codec (rust/ecs_laz); rustup's, when the machine has it, else Debian's.
 if ! command -v cargo >/dev/null 2>&1 && [ ! -x "$HOME/.cargo/bin/cargo" ]; then
   pkgs+=(cargo)
