@@ -250,3 +250,61 @@ TEST(LasIo, ChunkedWritingAndReadingGiveTheWholeFileFunctionsBytesAndPoints)
   }
   std::filesystem::remove_all(dir);
 }
+
+// A LAZ whose chunk-table offset points past the file (a damaged header; the fuzzer found one):
+// the whole-file and the chunked reader agree, the same points or the same refusal.
+TEST(LasIo, ALazWithItsChunkTableOffsetPastTheEndReadsTheSameBothWays)
+{
+  if (!io::lazSupported())
+    GTEST_SKIP() << "built without LAZ";
+  const std::string laz = io::lasBytes(utmCloud(1000), nullptr, true);
+  std::uint32_t point_offset = 0;
+  std::memcpy(&point_offset, laz.data() + 96, 4);
+  const std::string path =
+      (std::filesystem::temp_directory_path() / ("pcl_ecs_laz_table_" + std::to_string(::getpid()) + ".laz")).string();
+  // The fuzzer's file (its first byte picks the reader), then a good file with the offset changed.
+  std::ifstream found(std::string(PCL_ECS_SOURCE_DIR) + "/tests/fuzz/corpus/laz_chunk_table_offset_past_the_end",
+                      std::ios::binary);
+  const std::string fuzzed((std::istreambuf_iterator<char>(found)), std::istreambuf_iterator<char>());
+  ASSERT_GT(fuzzed.size(), 375u);
+  std::vector<std::string> files{fuzzed.substr(1)};
+  for (const std::int64_t table :
+       {std::int64_t{27285480555927152}, std::int64_t{1} << 62, static_cast<std::int64_t>(laz.size()) + 8})
+  {
+    files.push_back(laz);
+    std::memcpy(&files.back()[point_offset], &table, 8);
+  }
+  for (const std::string& bad : files)
+  {
+    const std::size_t table = &bad - files.data();
+    pcl::PCLPointCloud2 whole;
+    std::string whole_error, chunked_error;
+    try
+    {
+      io::parseLas(bad, whole);
+    }
+    catch (const io::FormatError& e)
+    {
+      whole_error = e.what();
+    }
+    {
+      std::ofstream f(path, std::ios::binary | std::ios::trunc);
+      f.write(bad.data(), static_cast<std::streamsize>(bad.size()));
+    }
+    std::vector<std::uint8_t> all, chunk;
+    try
+    {
+      io::LasStreamReader r(path);
+      while (r.read(333, chunk) > 0)
+        all.insert(all.end(), chunk.begin(), chunk.end());
+    }
+    catch (const io::FormatError& e)
+    {
+      chunked_error = e.what();
+    }
+    EXPECT_EQ(whole_error.empty(), chunked_error.empty()) << table << ": " << whole_error << " / " << chunked_error;
+    if (whole_error.empty() && chunked_error.empty())
+      EXPECT_TRUE(all == whole.data) << table;
+  }
+  std::filesystem::remove(path);
+}

@@ -162,7 +162,8 @@ pub extern "C" fn ecs_laz_decompress(
                 if total == 0 { &mut [][..] } else { std::slice::from_raw_parts_mut(out, total) },
             )
         };
-        let mut d = checked_decompressor(Cursor::new(file), file.len() as u64, point_offset, vlr, count, record_len)?;
+        let len = file.len() as u64;
+        let mut d = checked_decompressor(Bounded::new(Cursor::new(file), len), len, point_offset, vlr, count, record_len)?;
         // In steps, so that an error can say where the data ends.
         const STEP: usize = 50_000;
         let mut done = 0u64;
@@ -172,6 +173,45 @@ pub extern "C" fn ecs_laz_decompress(
         }
         Ok(())
     })
+}
+
+/// A source of `len` bytes that refuses to seek past its end (the position stays where it was). A
+/// file and bytes in memory differ there (a file refuses offsets above 2^63, bytes accept any), and
+/// the codec goes on differently after a refused and an accepted seek to a damaged chunk table: with
+/// this both readers (whole buffer and chunked) meet every file the same way.
+struct Bounded<R> {
+    inner: R,
+    len: u64,
+    pos: u64,
+}
+
+impl<R> Bounded<R> {
+    fn new(inner: R, len: u64) -> Self {
+        Bounded { inner, len, pos: 0 }
+    }
+}
+
+impl<R: Read> Read for Bounded<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.pos += n as u64;
+        Ok(n)
+    }
+}
+
+impl<R: Seek> Seek for Bounded<R> {
+    fn seek(&mut self, to: SeekFrom) -> std::io::Result<u64> {
+        let target = match to {
+            SeekFrom::Start(p) => i128::from(p),
+            SeekFrom::End(d) => i128::from(self.len) + i128::from(d),
+            SeekFrom::Current(d) => i128::from(self.pos) + i128::from(d),
+        };
+        if target < 0 || target > i128::from(self.len) {
+            return Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, "a seek past the end of the data"));
+        }
+        self.pos = self.inner.seek(SeekFrom::Start(target as u64))?;
+        Ok(self.pos)
+    }
 }
 
 /// A decompressor for the `count` records of `record_len` bytes at `point_offset` of `src` (`len`
@@ -338,7 +378,7 @@ fn check_layers<R: Read + Seek>(
 /// A LAZ file's points read a chunk at a time (`ecs_laz_reader_*`): the file is opened here and
 /// read as the points are asked for, so memory does not grow with the file.
 pub struct EcsLazReader {
-    d: LasZipDecompressor<'static, BufReader<File>>,
+    d: LasZipDecompressor<'static, Bounded<BufReader<File>>>,
     count: u64,
     done: u64,
     record_len: u16,
@@ -371,7 +411,7 @@ pub extern "C" fn ecs_laz_reader_open(
         let (path, vlr) = unsafe { (path_of(path)?, slice(vlr, vlr_len)) };
         let file = File::open(&path).map_err(|e| format!("cannot open it ({e})"))?;
         let len = file.metadata().map_err(|e| e.to_string())?.len();
-        let d = checked_decompressor(BufReader::new(file), len, point_offset, vlr, count, record_len)?;
+        let d = checked_decompressor(Bounded::new(BufReader::new(file), len), len, point_offset, vlr, count, record_len)?;
         let r = Box::new(EcsLazReader { d, count, done: 0, record_len });
         // SAFETY: `reader` is a valid pointer given by the caller.
         unsafe { *reader = Box::into_raw(r) };
