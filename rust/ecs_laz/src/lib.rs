@@ -232,8 +232,19 @@ fn checked_decompressor<'a, R: Read + Seek + Send + Sync + 'a>(
             vlr.items_size()
         ));
     }
-    check_chunk_table(&mut src, len, point_offset, count, &vlr)?;
-    if vlr_bytes.len() >= 2 && u16::from_le_bytes([vlr_bytes[0], vlr_bytes[1]]) == 3 {
+    // The compressor (the payload's first u16): 1 point-wise (one stream, no chunk table), 2
+    // point-wise chunked, 3 layered chunked.
+    let compressor = if vlr_bytes.len() >= 2 { u16::from_le_bytes([vlr_bytes[0], vlr_bytes[1]]) } else { 0 };
+    if compressor != 1 {
+        check_chunk_table(&mut src, len, point_offset, count, &vlr)?;
+        // A chunked file's table must be readable: when it is not, the codec skips 8 bytes from
+        // wherever the failed read left it (meant for sources that cannot seek) and decodes from
+        // there, so what it reads depends on how the table was damaged.
+        src.seek(SeekFrom::Start(point_offset)).map_err(|e| e.to_string())?;
+        ChunkTable::read_from(&mut src, &vlr)
+            .map_err(|e| format!("its compressed points are truncated or corrupt: their chunk table cannot be read ({e})"))?;
+    }
+    if compressor == 3 {
         check_layers(&mut src, len, point_offset, count, record_len, &vlr)?;
     }
     src.seek(SeekFrom::Start(point_offset)).map_err(|e| e.to_string())?;
@@ -338,11 +349,10 @@ fn check_layers<R: Read + Seek>(
     src.seek(SeekFrom::Start(point_offset)).map_err(|e| e.to_string())?;
     // The codec reads the chunks one after the other; the table (when there is one) says how many
     // bytes each may take.
-    let table = match ChunkTable::read_from(&mut *src, vlr) {
-        Ok(t) => Some(t),
-        Err(_) if fixed => None,
-        Err(e) => return Err(format!("its compressed points have no readable chunk table ({e})")),
-    };
+    let table = Some(
+        ChunkTable::read_from(&mut *src, vlr)
+            .map_err(|e| format!("its compressed points are truncated or corrupt: their chunk table cannot be read ({e})"))?,
+    );
     let corrupt = |k: u64| format!("its compressed points are truncated or corrupt (chunk {k})");
     let mut pos = point_offset + 8;
     let mut left = count;
