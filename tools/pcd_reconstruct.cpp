@@ -60,16 +60,8 @@ int run(int argc, char** argv)
   {
     const std::string& a = args.flag();
     auto value = [&]() { return args.value(); };
-    if (a == "--help" || a == "-h")
-    {
-      std::cout << kUsage << coconeFlagsHelp() << kOptions;
+    if (printedHelpOrVersion(a, "pcd_reconstruct", [] { return kUsage + coconeFlagsHelp() + kOptions; }))
       return kExitOk;
-    }
-    if (a == "--version")
-    {
-      std::cout << "pcd_reconstruct (pcl_ecs) " << PCL_ECS_VERSION_STRING << "\n";
-      return kExitOk;
-    }
     if (applyCoconeFlag(a, value, params))
       continue;
     if (a == "--stats")

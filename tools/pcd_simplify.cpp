@@ -135,15 +135,9 @@ Options parseArgs(int argc, char** argv, bool& done)
   {
     const std::string& a = args.flag();
     auto value = [&]() { return args.value(); };
-    if (a == "--help" || a == "-h")
+    if (printedHelpOrVersion(a, "pcd_simplify",
+                             [] { return kUsage + filterFlagsHelp() + "\n" + kOptions + "\n" + coconeFlagsHelp(); }))
     {
-      std::cout << kUsage << filterFlagsHelp() << "\n" << kOptions << "\n" << coconeFlagsHelp();
-      done = true;
-      return o;
-    }
-    if (a == "--version")
-    {
-      std::cout << "pcd_simplify (pcl_ecs) " << PCL_ECS_VERSION_STRING << "\n";
       done = true;
       return o;
     }

@@ -84,16 +84,8 @@ int main(int argc, char** argv)
       return tools::kExitUsage;
     }
     const std::string a = args.flag();
-    if (a == "--help" || a == "-h")
-    {
-      std::cout << kUsage;
+    if (tools::printedHelpOrVersion(a, "pcl_ecs_eval", [] { return std::string(kUsage); }))
       return tools::kExitOk;
-    }
-    if (a == "--version")
-    {
-      std::cout << "pcl_ecs_eval (pcl_ecs) " << PCL_ECS_VERSION_STRING << "\n";
-      return tools::kExitOk;
-    }
     if (a == "--json")
       json = true;
     else if (a == "--mesh")

@@ -148,23 +148,18 @@ std::string setParameter(const ParameterInfo& info, const std::string& text, Par
         }
         else if constexpr (std::is_same<T, double>::value)
         {
-          char* end = nullptr;
-          errno = 0;
-          const double v = std::strtod(text.c_str(), &end);
-          if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE)
-            return "'" + text + "' is not a number";
-          if (!std::isfinite(v))
-            return "'" + text + "' is not a finite number";
-          p.*member = v;
-          return {};
+          double v = 0;
+          std::string why = parseReal(text, v);
+          if (why.empty())
+            p.*member = v;
+          return why;
         }
         else
         {
-          char* end = nullptr;
-          errno = 0;
-          const long long v = std::strtoll(text.c_str(), &end, 10);
-          if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE)
-            return "'" + text + "' is not an integer";
+          long long v = 0;
+          std::string why = parseInteger(text, v);
+          if (!why.empty())
+            return why;
           if (std::is_unsigned<T>::value && v < 0)
             return "'" + text + "' must not be negative";
           if (static_cast<long double>(v) < static_cast<long double>(std::numeric_limits<T>::min()) ||
@@ -175,6 +170,30 @@ std::string setParameter(const ParameterInfo& info, const std::string& text, Par
         }
       },
       info.member);
+}
+
+std::string parseReal(const std::string& text, double& value)
+{
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE)
+    return "'" + text + "' is not a number";
+  if (!std::isfinite(v))
+    return "'" + text + "' is not a finite number";
+  value = v;
+  return {};
+}
+
+std::string parseInteger(const std::string& text, long long& value)
+{
+  char* end = nullptr;
+  errno = 0;
+  const long long v = std::strtoll(text.c_str(), &end, 10);
+  if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE)
+    return "'" + text + "' is not an integer";
+  value = v;
+  return {};
 }
 
 bool inRange(const ParameterInfo& info, const Parameters& p)

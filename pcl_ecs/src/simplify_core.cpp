@@ -16,7 +16,6 @@
 #include <cmath>
 #include <limits>
 #include <list>
-#include <optional>
 #include <sstream>
 #include <utility>
 

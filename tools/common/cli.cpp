@@ -1,13 +1,11 @@
 #include "cli.h"
 
 #include <pcl_ecs/parameter_table.h>
+#include <pcl_ecs/version.h>
 
 #include <algorithm>
 
-#include <cerrno>
-#include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <sstream>
 
 #include <unistd.h>
@@ -22,23 +20,19 @@ namespace tools
 
 double parseDoubleFlag(const std::string& flag, const std::string& text)
 {
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE)
-    throw UsageError(flag + ": '" + text + "' is not a number");
-  if (!std::isfinite(v))
-    throw UsageError(flag + ": '" + text + "' is not a finite number");
+  double v = 0;
+  const std::string why = parseReal(text, v);
+  if (!why.empty())
+    throw UsageError(flag + ": " + why);
   return v;
 }
 
 std::int64_t parseIntFlag(const std::string& flag, const std::string& text)
 {
-  char* end = nullptr;
-  errno = 0;
-  const long long v = std::strtoll(text.c_str(), &end, 10);
-  if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE)
-    throw UsageError(flag + ": '" + text + "' is not an integer");
+  long long v = 0;
+  const std::string why = parseInteger(text, v);
+  if (!why.empty())
+    throw UsageError(flag + ": " + why);
   return v;
 }
 
@@ -119,6 +113,17 @@ std::string filterFlagsHelp()
     os << line << "\n";
   }
   return os.str();
+}
+
+bool printedHelpOrVersion(const std::string& flag, const char* tool, const std::function<std::string()>& help)
+{
+  if (flag == "--help" || flag == "-h")
+    std::fputs(help().c_str(), stdout);
+  else if (flag == "--version")
+    std::printf("%s (pcl_ecs) %s\n", tool, PCL_ECS_VERSION_STRING);
+  else
+    return false;
+  return true;
 }
 
 bool stderrIsTerminal()

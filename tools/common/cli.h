@@ -132,6 +132,10 @@ void checkFilterFlagConflicts(const ArgWalker& args, bool target_ratio_given);
 /** \brief The --help text of the filter flags, with the library's defaults. */
 std::string filterFlagsHelp();
 
+/// `--help` / `-h` prints `help()`, `--version` prints "TOOL (pcl_ecs) VERSION", both on stdout:
+/// true when `flag` was one of them (the tool then exits 0).
+bool printedHelpOrVersion(const std::string& flag, const char* tool, const std::function<std::string()>& help);
+
 /** \brief A progress line on stderr ("\r<prefix>: stage 42%"), only when `enabled` (a terminal
  * and not --quiet); finish() clears it. */
 class ProgressLine

@@ -209,15 +209,8 @@ Options parseArgs(int argc, char** argv, bool& done)
   {
     const std::string a = args.flag();
     auto value = [&]() -> std::string { return args.value(); };
-    if (a == "--help" || a == "-h")
+    if (tools::printedHelpOrVersion(a, "ecs_node", [] { return kUsage + tools::filterFlagsHelp(); }))
     {
-      std::cout << kUsage << tools::filterFlagsHelp();
-      done = true;
-      return o;
-    }
-    if (a == "--version")
-    {
-      std::cout << "ecs_node (pcl_ecs) " << PCL_ECS_VERSION_STRING << "\n";
       done = true;
       return o;
     }

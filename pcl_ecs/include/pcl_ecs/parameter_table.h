@@ -54,6 +54,13 @@ std::string parameterText(const ParameterInfo& info, const Parameters& p);
  * when it is). A switch takes "true" (set) or "false" (left as it is). Ranges are validate()'s. */
 std::string setParameter(const ParameterInfo& info, const std::string& text, Parameters& p);
 
+/** \brief Reads a finite number from the whole of `text`; returns why it is not one ("'x' is
+ * not a number", "... not a finite number"), empty when it is. */
+std::string parseReal(const std::string& text, double& value);
+
+/** \brief Reads an integer from the whole of `text`; returns why it is not one, empty when it is. */
+std::string parseInteger(const std::string& text, long long& value);
+
 /** \brief Whether a row's value in `p` lies in its range (validate() for one row). */
 bool inRange(const ParameterInfo& info, const Parameters& p);
 

@@ -159,7 +159,7 @@ double ballRoughness(const RadiusSolution& sol)
 
 std::optional<Eigen::Vector3d> representativeOffset(const RadiusSolution& sol, double roughness, const Parameters& params)
 {
-  if (roughness > params.max_roughness)
+  if (tooRough(roughness, params))
     return std::nullopt;  // the points do not agree on a surface: c stands for them
   const Eigen::Vector3d x = params.representative_cutoff == kQuadricCutoff
                                 ? sol.x_min

@@ -13,12 +13,10 @@ namespace detail
 struct AttrView
 {
   const std::vector<std::uint8_t>& bytes;
-  PointAttr at(std::size_t i) const { return PointAttr::load(bytes.data() + i * kAttrBytes); }
-  Eigen::Vector3f normal(std::size_t i) const { return at(i).normal; }
+  Eigen::Vector3f normal(std::size_t i) const { return PointAttr::loadNormal(bytes.data() + i * kAttrBytes); }
   double value(std::size_t i, int which) const  // 0 weight, 1 measure, 2 curvature
   {
-    const PointAttr a = at(i);
-    return which == 0 ? a.weight : which == 1 ? a.measure : a.curvature;
+    return PointAttr::value(bytes.data() + i * kAttrBytes, which);
   }
   std::size_t size() const { return bytes.size() / kAttrBytes; }
   /// Eq. 4 with the global δ: the measure above δ.

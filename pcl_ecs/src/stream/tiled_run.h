@@ -118,23 +118,28 @@ constexpr std::uint64_t kProcessAllowance = 48ull << 20;  // what the plan count
 struct PointAttr
 {
   static constexpr std::size_t kBytes = 12 + 3 * 8;
+  /// Where the three values start; value(at, 0 weight | 1 measure | 2 curvature) reads one alone.
+  static constexpr std::size_t kValuesAt = 12;
   Eigen::Vector3f normal = Eigen::Vector3f::Zero();
   double weight = 0, measure = 0, curvature = 0;
   void store(std::uint8_t* at) const
   {
     std::memcpy(at, normal.data(), 12);
-    std::memcpy(at + 12, &weight, 8);
-    std::memcpy(at + 20, &measure, 8);
-    std::memcpy(at + 28, &curvature, 8);
+    std::memcpy(at + kValuesAt, &weight, 8);
+    std::memcpy(at + kValuesAt + 8, &measure, 8);
+    std::memcpy(at + kValuesAt + 16, &curvature, 8);
   }
-  static PointAttr load(const std::uint8_t* at)
+  static Eigen::Vector3f loadNormal(const std::uint8_t* at)
   {
-    PointAttr a;
-    std::memcpy(a.normal.data(), at, 12);
-    std::memcpy(&a.weight, at + 12, 8);
-    std::memcpy(&a.measure, at + 20, 8);
-    std::memcpy(&a.curvature, at + 28, 8);
-    return a;
+    Eigen::Vector3f n;
+    std::memcpy(n.data(), at, 12);
+    return n;
+  }
+  static double value(const std::uint8_t* at, int which)
+  {
+    double v;
+    std::memcpy(&v, at + kValuesAt + 8 * static_cast<std::size_t>(which), 8);
+    return v;
   }
 };
 constexpr std::size_t kAttrBytes = PointAttr::kBytes;

@@ -96,9 +96,13 @@ struct CoverBall
 };
 
 /** \brief Parameters::max_roughness: a ball this rough keeps its centre as its representative. */
+inline bool tooRough(double roughness, const Parameters& params)
+{
+  return roughness > params.max_roughness;
+}
 inline bool tooRough(const CoverBall& ball, const Parameters& params)
 {
-  return ball.roughness > params.max_roughness;
+  return tooRough(ball.roughness, params);
 }
 
 /** \brief How far a ball's points scatter about the quadric's minimiser: sqrt(Q(x_min) / sum
