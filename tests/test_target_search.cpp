@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -33,6 +34,11 @@ public:
     kept = last_;
     kept_index = last_index_;
   }
+  double predictCount(double terr) const override
+  {
+    return predict ? predict(terr) : std::numeric_limits<double>::quiet_NaN();
+  }
+  std::function<double(double)> predict;  ///< none: the counter cannot predict
   struct Trial
   {
     double terr, cap, gap;
@@ -147,6 +153,62 @@ TEST(TargetSearch, WidensTheGapBoundWhenItsPointsAloneExceedTheExcess)
   EXPECT_GT(r.gap_factor, 1.2);
   EXPECT_LE(r.gap_factor, r.cap_factor);
   EXPECT_EQ(r.gap_points, static_cast<std::size_t>(2000.0 * std::exp(-3.0 * r.gap_factor)));
+}
+
+TEST(TargetSearch, StepsToThePredictedTErrAndStopsThereWhenThePredictionHolds)
+{
+  // balls = 50 T^-0.5 from T = 1e-3 (1,581 balls) to 5,000: an exact prediction takes the search
+  // there in one step; without one it brackets by ×4 and then solves.
+  auto law = [](double t, double, double) { return powerLaw(t, 50.0, 0.5); };
+  FormulaCounter predicted(law), blind(law);
+  predicted.predict = [](double t) { return 50.0 * std::pow(t, -0.5); };
+  const TargetSearchResult r = pcl_ecs::searchTargetSize(setupFor(5000.0, 120), predicted);
+  const TargetSearchResult rb = pcl_ecs::searchTargetSize(setupFor(5000.0, 120), blind);
+  EXPECT_TRUE(r.reached);
+  EXPECT_TRUE(rb.reached);
+  EXPECT_EQ(r.trials, 2);
+  EXPECT_GT(rb.trials, 2);
+  EXPECT_LE(std::abs(static_cast<double>(r.output_points) - 5000.0), 50.0);
+}
+
+TEST(TargetSearch, AWrongPredictionStillEndsWithinOnePercent)
+{
+  // The prediction says 30% fewer (or more) balls than there are, or far off: the bracket and
+  // Brent's method still reach the target, from above and below.
+  for (const double bias : {0.7, 1.3, 0.1, 10.0})
+    for (const double target : {300.0, 5000.0})
+    {
+      FormulaCounter counter([](double t, double, double) { return powerLaw(t, 50.0, 0.5); });
+      counter.predict = [bias](double t) { return bias * 50.0 * std::pow(t, -0.5); };
+      const TargetSearchResult r = pcl_ecs::searchTargetSize(setupFor(target, 0), counter);
+      EXPECT_TRUE(r.reached) << bias << " " << target;
+      EXPECT_LE(std::abs(static_cast<double>(r.output_points) - target), 0.01 * target) << bias << " " << target;
+    }
+}
+
+TEST(TargetSearch, WidensTheGapBoundAtTheStartingTErrBeforeMovingIt)
+{
+  // Too many at the start, the gap points alone more than the excess: the gap bound widens with
+  // T where it started (that cover is reused); T moves only once the gap points no longer bind.
+  auto counts = [](double t, double, double gap) {
+    TargetTrialCounts c = powerLaw(t, 50.0, 0.5);  // 1,581 balls at 1e-3
+    c.gap_points = static_cast<std::size_t>(4000.0 * std::exp(-2.0 * gap));
+    c.balls += c.gap_points;
+    return c;
+  };
+  TargetSearchSetup s = setupFor(1700.0, 0);
+  s.gap_ratio = 0.6;  // gap 1.2: 362 gap points, 1,943 in all
+  FormulaCounter counter(counts);
+  const TargetSearchResult r = pcl_ecs::searchTargetSize(s, counter);
+  EXPECT_TRUE(r.reached);
+  ASSERT_GE(counter.trials.size(), 2u);
+  EXPECT_EQ(counter.trials[1].terr, counter.trials[0].terr);
+  EXPECT_GT(counter.trials[1].gap, counter.trials[0].gap);
+  std::size_t first_move = 1;
+  while (first_move < counter.trials.size() && counter.trials[first_move].terr == counter.trials[0].terr)
+    ++first_move;
+  for (std::size_t i = first_move; i < counter.trials.size(); ++i)
+    EXPECT_EQ(counter.trials[i].gap, counter.trials[first_move - 1].gap) << i;
 }
 
 TEST(TargetSearch, TheSameCountsGiveTheSameTrials)

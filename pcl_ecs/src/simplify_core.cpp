@@ -1,6 +1,7 @@
 #include <pcl_ecs/simplify_core.h>
 
 #include <pcl_ecs/neighborhood.h>
+#include <pcl_ecs/stages/cover_size_model.h>
 #include <pcl_ecs/stages/density_weights.h>
 #include <pcl_ecs/stages/feature_measure.h>
 #include <pcl_ecs/stages/gap_fill.h>
@@ -64,7 +65,8 @@ std::size_t runCover(const CoverInput& in, const Parameters& params, double terr
 /// The target-size search's count function (target_search.h): the cover at (T, cap), then the gap
 /// bound. The last few covers before their gap points are kept with their T and cap: a search
 /// that only widens the gap bound, or comes back to a T it tried at this cap, reuses the cover and
-/// redoes only the gap bound (the same result as running it again).
+/// redoes only the gap bound (the same result as running it again). Its prediction is the last
+/// trial's CoverSizeModel (stages/cover_size_model.h).
 class CoverCounter : public TargetCounter
 {
 public:
@@ -77,6 +79,7 @@ public:
   TargetTrialCounts count(double terr, double cap_factor, double gap_factor) override
   {
     params_.radius_cap_factor = cap_factor;
+    const double cap = cap_factor * in_.neighborhood_radius;
     auto hit = std::find_if(covers_.begin(), covers_.end(),
                             [&](const CachedCover& c) { return c.terr == terr && c.cap == cap_factor; });
     if (hit == covers_.end())
@@ -91,16 +94,23 @@ public:
       covers_.splice(covers_.begin(), covers_, hit);
     const CoverOutput& cached = covers_.front().cover;
     TargetTrialCounts c;
-    const double cap = cap_factor * in_.neighborhood_radius;
     for (const CoverBall& b : cached.balls)
       c.below_cap += b.radius < cap * (1.0 - 1e-9) ? 1 : 0;
     trial_ = cached;
     c.gap_points = fillGaps(in_, params_, terr, gap_factor * in_.neighborhood_radius, trial_);
     c.balls = trial_.balls.size();
+    model_ = CoverSizeModel(cached.balls, cap, c.gap_points);
+    model_terr_ = terr;
     progress_(++trials_);
     return c;
   }
   void keepLast() override { std::swap(best_, trial_); }
+  double predictCount(double terr) const override
+  {
+    if (model_.balls() == 0 || !(terr > 0.0))
+      return std::numeric_limits<double>::quiet_NaN();
+    return model_.count(terr / model_terr_);
+  }
   int coverPasses() const { return passes_; }
 
 private:
@@ -116,6 +126,8 @@ private:
   std::function<void(int)> progress_;
   std::list<CachedCover> covers_;  // most recent first
   CoverOutput trial_;
+  CoverSizeModel model_;  // the last trial's, at T = model_terr_
+  double model_terr_ = 0.0;
   int trials_ = 0, passes_ = 0;
 };
 }  // namespace

@@ -34,6 +34,7 @@ private:
   bool bracketDown(double& lo, double& hi, double& b_lo, double& b_hi);
   void solve(double lo, double hi, double b_lo, double b_hi);
   double widenGap(bool gaps_bind);
+  std::optional<double> predictedTerr(double from, double from_count);
 
   const TargetSearchSetup& setup_;
   TargetCounter& counter_;
@@ -46,6 +47,16 @@ private:
   // Balls of the last cover below the radius cap: when they are fewer than the tolerance, a
   // larger T cannot remove enough balls (every other ball is at the cap already).
   std::size_t below_cap_ = 0;
+  double last_terr_ = 0.0, last_count_ = 0.0;  // the last trial
+  // How much more the count moved than the counter predicted, measured on the last predicted step
+  // (log of the change seen over log of the change predicted; 1 until a step measures it), and the
+  // step waiting for its count.
+  double sensitivity_ = 1.0;
+  struct PendingPrediction
+  {
+    double terr, from_count, predicted;
+  };
+  std::optional<PendingPrediction> pending_;
   // The count at saturation in the current search (cap and gap bound): the fewest balls of a
   // cover whose balls are nearly all at the cap.
   double floor_count_ = std::numeric_limits<double>::infinity();
@@ -67,6 +78,16 @@ double Search::attempt(double terr)
   const TargetTrialCounts c = counter_.count(terr, cap_, gap_factor_);
   below_cap_ = c.below_cap;
   const std::size_t balls = c.balls;
+  if (pending_ && pending_->terr == terr)
+  {
+    const double seen = std::log(static_cast<double>(std::max<std::size_t>(balls, 1)) / pending_->from_count);
+    const double predicted = std::log(pending_->predicted / pending_->from_count);
+    if (std::abs(predicted) > 0.005 && seen / predicted > 0.0)
+      sensitivity_ = std::min(4.0, std::max(0.5, seen / predicted));
+  }
+  pending_.reset();
+  last_terr_ = terr;
+  last_count_ = static_cast<double>(balls);
   ++r_.trials;
   // Nearly saturated (at most 5% of the balls, or the tolerance, below the cap): about the
   // count the cap sets.
@@ -95,15 +116,19 @@ double Search::attempt(double terr)
 /// cover whose balls are all at the cap: the cap, not T, sets it) or T reaches its top.
 bool Search::bracketUp(double& lo, double& hi, double& b_lo, double& b_hi)
 {
+  int predicted_steps = 0;  // in a row
   while (b_hi > wanted_ && hi < highest && best_distance_ > tol_)
   {
     lo = hi;
     b_lo = b_hi;
-    hi = std::min(hi * 4.0, highest);
+    const std::optional<double> guess = predicted_steps < 2 ? predictedTerr(hi, b_hi) : std::nullopt;
+    const bool predicted = guess && *guess > hi;
+    predicted_steps = predicted ? predicted_steps + 1 : 0;
+    hi = std::min(predicted ? *guess : hi * 4.0, highest);
     b_hi = attempt(hi);
     // Saturated: the balls below the cap are too few to matter, or T × 4 removed fewer
     // balls than the tolerance (every ball near the cap).
-    if (b_hi > wanted_ && (static_cast<double>(below_cap_) < tol_ || b_hi > b_lo - tol_))
+    if (b_hi > wanted_ && (static_cast<double>(below_cap_) < tol_ || (!predicted && b_hi > b_lo - tol_)))
     {
       saturated_cap_ = cap_;
       saturated_terr_ = static_cast<double>(below_cap_) < tol_ ? hi : lo;
@@ -124,11 +149,17 @@ bool Search::bracketDown(double& lo, double& hi, double& b_lo, double& b_hi)
   // their power law gives to the wanted count, passed by 30% to bracket it (1.5 to 16).
   double t_prev = hi, b_prev = b_hi;
   bool saturated = static_cast<double>(below_cap_) < tol_;
+  int predicted_steps = 0;  // in a row
   while (b_lo < wanted_ && lo > lowest && best_distance_ > tol_)
   {
     double factor = 4.0;
     const double p = t_prev != lo && b_prev > 0.0 && b_lo > b_prev ? std::log(b_lo / b_prev) / std::log(t_prev / lo) : 0.0;
-    if (!saturated && p > 0.05)
+    const std::optional<double> guess = predicted_steps < 2 ? predictedTerr(lo, b_lo) : std::nullopt;
+    const bool predicted = guess && *guess < lo;
+    predicted_steps = predicted ? predicted_steps + 1 : 0;
+    if (predicted)
+      factor = lo / *guess;
+    else if (!saturated && p > 0.05)
       factor = std::min(16.0, std::max(1.5, std::pow(wanted_ / std::max(b_lo, 0.5), 1.3 / p)));
     t_prev = lo;
     b_prev = b_lo;
@@ -138,13 +169,37 @@ bool Search::bracketDown(double& lo, double& hi, double& b_lo, double& b_hi)
     b_lo = attempt(lo);
     const bool was_saturated = saturated;
     saturated = static_cast<double>(below_cap_) < tol_;
-    // A smaller T that adds no ball, with balls below the cap: T cannot add more.
-    if (b_lo <= b_hi && !(was_saturated || saturated))
+    // A smaller T that adds no ball, with balls below the cap: T cannot add more (unless the
+    // step was a prediction's, which may be short).
+    if (b_lo <= b_hi && !(was_saturated || saturated) && !predicted)
       return false;
   }
   if (b_lo < wanted_)
     return false;
   return true;
+}
+
+/// The T_err within ×16 of `from` (whose trial counted `from_count`) at which the counter's
+/// prediction from its last cover gives the wanted count, the predicted change scaled by the
+/// sensitivity measured so far; nothing when it cannot predict or the count lies outside that
+/// range. Bisection on log T (the prediction falls as T rises, but for the gap points it carries).
+std::optional<double> Search::predictedTerr(double from, double from_count)
+{
+  if (!(from_count > 0.0) || !(wanted_ > 0.0))
+    return std::nullopt;
+  const double want = from_count * std::pow(wanted_ / from_count, 1.0 / sensitivity_);
+  double a = std::max(from / 16.0, lowest), b = std::min(from * 16.0, highest);
+  const double at_a = counter_.predictCount(a), at_b = counter_.predictCount(b);
+  if (std::isnan(at_a) || std::isnan(at_b) || !(at_a >= want && want >= at_b))
+    return std::nullopt;
+  for (int it = 0; it < 40 && b > a * (1.0 + 1e-4); ++it)
+  {
+    const double m = std::sqrt(a * b);
+    (counter_.predictCount(m) >= want ? a : b) = m;
+  }
+  const double t = std::sqrt(a * b);
+  pending_ = PendingPrediction{t, from_count, counter_.predictCount(t)};
+  return t;
 }
 
 /// Brent's method on g = log((count - floor) / (wanted - floor)) against log T, inside the
@@ -154,6 +209,19 @@ bool Search::bracketDown(double& lo, double& hi, double& b_lo, double& b_hi)
 /// count falls about like a power of T.
 void Search::solve(double lo, double hi, double b_lo, double b_hi)
 {
+  // First, up to two steps to the T the last trial's cover predicts, while that falls inside
+  // the bracket.
+  for (int k = 0; k < 2 && best_distance_ > tol_; ++k)
+  {
+    const std::optional<double> guess = predictedTerr(last_terr_, last_count_);
+    if (!guess || !(*guess > lo && *guess < hi))
+      break;
+    const double b = attempt(*guess);
+    (b > wanted_ ? lo : hi) = *guess;
+    (b > wanted_ ? b_lo : b_hi) = b;
+  }
+  if (best_distance_ <= tol_)
+    return;
   const double floor = floor_count_ < wanted_ && floor_count_ <= b_hi ? std::max(0.0, floor_count_ - tol_) : 0.0;
   auto gOf = [&](double b) { return std::log(std::max(b - floor, 0.5) / (wanted_ - floor)); };
   double a = std::log(lo), fa = gOf(b_lo), b = std::log(hi), fb = gOf(b_hi);
@@ -244,6 +312,11 @@ bool Search::search()
     saturated_terr_ = lo;
     return best_distance_ < before;
   }
+  // Too many, and the gap points alone exceed the excess while the gap bound may widen: widen it
+  // first (run()), here at this T, whose cover is reused, rather than move T.
+  if (b_lo > wanted_ && gap_factor_ > 0.0 && gap_factor_ < cap_ &&
+      static_cast<double>(fewest_gaps_) >= b_lo - wanted_)
+    return best_distance_ < before;
   const bool bracketed = b_lo > wanted_ ? bracketUp(lo, hi, b_lo, b_hi) : bracketDown(lo, hi, b_lo, b_hi);
   if (bracketed)
     solve(lo, hi, b_lo, b_hi);

@@ -7,8 +7,12 @@
 // output; a test gives it a synthetic count.
 //
 // The search, in order:
-//  1. at the starting cap and gap bound: bracket T_err by ×4 steps from the user's T_err (down by
-//     the step two trials' power law gives, when too few), then Brent's method on
+//  0. too many at the start, and the gap points alone more than the excess: the gap bound widens
+//     first (as in 2), at the starting T_err, whose cover the counter reuses;
+//  1. at the starting cap and gap bound: bracket T_err from the user's T_err, each step to the T_err
+//     the counter predicts from its last cover for the wanted count (TargetCounter::predictCount;
+//     at most twice in a row, and never by more than ×16), else by ×4 (down by the step two
+//     trials' power law gives, when too few); then Brent's method on
 //     log((count − floor) / (wanted − floor)) against log T inside the bracket;
 //  2. while the size is out of reach (the cap or the gap points, not T_err, set the count): widen
 //     the gap bound (×1.1, several steps at once when two searches show how the gap points fall)
@@ -18,6 +22,7 @@
 #pragma once
 
 #include <cstddef>
+#include <limits>
 
 namespace pcl_ecs
 {
@@ -40,6 +45,15 @@ public:
   virtual TargetTrialCounts count(double terr, double cap_factor, double gap_factor) = 0;
   /// The last trial is the closest to the target so far: keep it as the result.
   virtual void keepLast() = 0;
+  /// The count (TargetTrialCounts::balls) a trial at T_err `terr` would give at the last trial's
+  /// cap and gap bound, predicted from the last trial without running a cover; NaN when the
+  /// counter cannot tell (the default). The search steps to the T_err it predicts for the wanted
+  /// count instead of by ×4 (see above).
+  virtual double predictCount(double terr) const
+  {
+    (void)terr;
+    return std::numeric_limits<double>::quiet_NaN();
+  }
 };
 
 /** \brief Where the search starts. */
