@@ -727,3 +727,52 @@ TEST(Filter, ExtremeScalesGiveTheUnitScaleResult)
   EXPECT_TRUE(out_t.empty());
   EXPECT_NE(t.getResult().error.find("too small for float precision"), std::string::npos) << t.getResult().error;
 }
+
+TEST(Filter, MaxDeviationHoldsInTheInputsUnitsAtEveryScale)
+{
+  // The bunny at its own scale and at 1e8 × (a local frame scaled by a power of four): the bound
+  // in input units, or as a fraction of L, holds and is reported in input units; without a bound
+  // nothing is measured unless asked for.
+  auto bunny = std::make_shared<Cloud>();
+  ASSERT_EQ(pcl::io::loadPCDFile(sharedData("bunny.pcd"), *bunny), 0);
+  Filter plain;
+  Cloud out_plain;
+  plain.setInputCloud(bunny);
+  plain.filter(out_plain);
+  EXPECT_FALSE(plain.getResult().summary.deviation_measured);
+  plain.setReportDeviation(true);
+  plain.filter(out_plain);
+  const pcl_ecs::Summary& ref = plain.getResult().summary;
+  ASSERT_TRUE(ref.deviation_measured);
+  EXPECT_EQ(ref.deviation_points, 0u);
+  EXPECT_GE(ref.deviation_max, ref.deviation_p99);
+  EXPECT_GE(ref.deviation_p99, 0.0);
+  const double bound = 0.4 * ref.deviation_max;
+  for (const double k : {1.0, 1e8})
+  {
+    auto scaled = std::make_shared<Cloud>();
+    for (const auto& p : *bunny)
+      scaled->push_back(pcl::PointXYZ(static_cast<float>(p.x * k), static_cast<float>(p.y * k), static_cast<float>(p.z * k)));
+    Filter f;
+    Cloud out;
+    f.setInputCloud(scaled);
+    f.setMaxDeviation(bound * k);
+    f.filter(out);
+    ASSERT_TRUE(f.getResult().error.empty()) << f.getResult().error;
+    const pcl_ecs::Summary& s = f.getResult().summary;
+    EXPECT_TRUE(s.deviation_measured);
+    EXPECT_NEAR(s.max_deviation, bound * k, 1e-9 * bound * k) << k;
+    EXPECT_LE(s.deviation_max, bound * k) << k;
+    EXPECT_GT(s.deviation_points, 0u) << k;
+    EXPECT_EQ(out.size(), s.output_points);
+    EXPECT_GT(out.size(), out_plain.size());
+    // The same bound as a fraction of L.
+    Filter g;
+    Cloud out_g;
+    g.setInputCloud(scaled);
+    g.setMaxDeviationOfDiagonal(bound * k / s.bbox_diagonal);
+    g.filter(out_g);
+    EXPECT_NEAR(g.getResult().summary.max_deviation, bound * k, 1e-6 * bound * k) << k;
+    EXPECT_LE(g.getResult().summary.deviation_max, g.getResult().summary.max_deviation) << k;
+  }
+}

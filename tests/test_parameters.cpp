@@ -104,7 +104,7 @@ TEST(Parameters, ResolveThreads)
 TEST(ParameterTable, EveryRowRoundTripsItsTextAndNamesItsFieldWhenOutOfRange)
 {
   const auto& table = pcl_ecs::parameterTable();
-  EXPECT_EQ(table.size(), 17u);
+  EXPECT_EQ(table.size(), 19u);
   std::set<std::string> names, fields;
   const Parameters defaults;
   for (const pcl_ecs::ParameterInfo& info : table)
@@ -147,7 +147,9 @@ TEST(ParameterTable, EveryRowRoundTripsItsTextAndNamesItsFieldWhenOutOfRange)
                        Bad{"max-gap", "-1", "max_gap_factor = -1 is invalid: must be 0 (off) or in (0, 100]"},
                        Bad{"target-gap", "101", "target_gap_factor = 101 is invalid"},
                        Bad{"threads", "1025", "threads = 1025 is invalid"},
-                       Bad{"target-cap", "-2", "target_radius_cap = -2 is invalid"}})
+                       Bad{"target-cap", "-2", "target_radius_cap = -2 is invalid"},
+                       Bad{"max-deviation", "-0.1", "max_deviation = -0.1 is invalid"},
+                       Bad{"max-deviation", "101%", "max_deviation_of_L = 1.01, a fraction of L in (0, 1]"}})
   {
     Parameters p;
     ASSERT_EQ(pcl_ecs::setParameter(*pcl_ecs::findParameter(b.name), b.text, p), "") << b.name;
@@ -167,4 +169,26 @@ TEST(ParameterTable, EveryRowRoundTripsItsTextAndNamesItsFieldWhenOutOfRange)
   EXPECT_FALSE(p.adaptive);
   EXPECT_EQ(pcl_ecs::parameterText(no_adapt, p), "true");
   EXPECT_EQ(pcl_ecs::findParameter("error_threshold"), nullptr);  // the field is not a spelling
+}
+
+TEST(ParameterTable, MaxDeviationTakesUnitsOrAPercentageOfL)
+{
+  const pcl_ecs::ParameterInfo& row = *pcl_ecs::findParameter("max-deviation");
+  Parameters p;
+  EXPECT_EQ(pcl_ecs::setParameter(row, "0.25%", p), "");
+  EXPECT_DOUBLE_EQ(p.max_deviation_of_L, 0.0025);
+  EXPECT_EQ(p.max_deviation, 0.0);
+  EXPECT_EQ(pcl_ecs::parameterText(row, p), "0.25%");
+  EXPECT_EQ(pcl_ecs::validate(p), "");
+  EXPECT_EQ(pcl_ecs::setParameter(row, "0.02", p), "");  // the other form replaces it
+  EXPECT_EQ(p.max_deviation, 0.02);
+  EXPECT_EQ(p.max_deviation_of_L, 0.0);
+  EXPECT_EQ(pcl_ecs::parameterText(row, p), "0.02");
+  EXPECT_NE(pcl_ecs::setParameter(row, "%", p).find("not a number or a percentage"), std::string::npos);
+  // Both set (only possible in code), or with a target size: refused, saying why.
+  p.max_deviation_of_L = 0.001;
+  EXPECT_NE(pcl_ecs::validate(p).find("not with max_deviation as well"), std::string::npos);
+  p.max_deviation_of_L = 0.0;
+  p.target_size = 100;
+  EXPECT_NE(pcl_ecs::validate(p).find("cannot be combined with target_size"), std::string::npos);
 }

@@ -320,6 +320,24 @@ std::string mergedNote(std::uint64_t merged)
   return merged > 0 ? " (" + std::to_string(merged) + " coincident points merged)" : std::string();
 }
 
+/// The summary line's note on the deviation ("" when it was not measured): every input point's
+/// distance to the output's surface, in the input's units, and the bound held.
+std::string deviationNote(const Summary& s)
+{
+  if (!s.deviation_measured)
+    return {};
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "; deviation max %.3g (p99 %.3g, RMS %.3g)", s.deviation_max, s.deviation_p99,
+                s.deviation_rms);
+  std::string note = buf;
+  if (s.max_deviation > 0.0)
+  {
+    std::snprintf(buf, sizeof buf, " <= %.3g, %zu points added to hold it", s.max_deviation, s.deviation_points);
+    note += buf;
+  }
+  return note;
+}
+
 int runStream(const Options& o)
 {
   stream::StreamOptions so;
@@ -564,11 +582,11 @@ int runTool(int argc, char** argv)
   {
     const Summary& s = r.result.summary;
     std::printf("%s: %zu -> %zu points (%.2f%%)%s: %zu features, %zu balls; T_err %.3g, max error "
-                "%.3g L; %.2f s\n",
+                "%.3g L%s; %.2f s\n",
                 o.output.c_str(), s.finite_points, s.output_points,
                 100.0 * static_cast<double>(s.output_points) / static_cast<double>(std::max<std::size_t>(1, s.finite_points)),
                 mergedNote(s.merged_points).c_str(), s.feature_points, s.balls, s.error_threshold, s.max_error,
-                s.timings.total);
+                deviationNote(s).c_str(), s.timings.total);
     if (mesh)
       std::printf("%s: %s\n", o.mesh.c_str(), meshSummaryLine(*mesh).c_str());
   }
@@ -577,8 +595,9 @@ int runTool(int argc, char** argv)
     const StageTimings& t = r.result.summary.timings;
     std::fprintf(stderr,
                  "stages (s): neighbours %.3f normals %.3f weights %.3f features %.3f density %.3f "
-                 "curvature %.3f cover %.3f output %.3f\n",
-                 t.neighbors, t.normals, t.weights, t.features, t.density, t.curvature, t.cover, t.output);
+                 "curvature %.3f cover %.3f deviation %.3f output %.3f\n",
+                 t.neighbors, t.normals, t.weights, t.features, t.density, t.curvature, t.cover, t.deviation,
+                 t.output);
   }
   return kExitOk;
 }

@@ -9,6 +9,7 @@
 #include <pcl_ecs/stages/local_density.h>
 #include <pcl_ecs/stages/normals.h>
 #include <pcl_ecs/stages/paraboloid_curvature.h>
+#include <pcl_ecs/stages/surface_deviation.h>
 #include <pcl_ecs/stages/target_search.h>
 
 #include <algorithm>
@@ -283,6 +284,29 @@ void coverToTargetSize(const CoverInput& in, const Parameters& params, const Rep
   s.cover_passes = counter.coverPasses();
 }
 
+/// Every point's deviation from the output's surface, in the summary; with a bound, points added
+/// until it holds (stages/surface_deviation.h).
+void measureDeviation(const CoverInput& in, const Parameters& params, CoreOutput& out)
+{
+  Summary& s = out.summary;
+  const double bound = params.max_deviation > 0.0 ? params.max_deviation : params.max_deviation_of_L * s.bbox_diagonal;
+  std::vector<double> deviation;
+  if (bound > 0.0)
+  {
+    s.max_deviation = bound;
+    s.deviation_points = boundDeviation(in, params, s.error_threshold, bound, out.cover, deviation);
+  }
+  else if (params.report_deviation)
+    deviation = coverDeviations(in, out.cover, resolveThreads(params.threads));
+  else
+    return;
+  const DeviationSummary d = summarizeDeviations(std::move(deviation));
+  s.deviation_measured = true;
+  s.deviation_max = d.max;
+  s.deviation_p99 = d.p99;
+  s.deviation_rms = d.rms;
+}
+
 /// The counts and extremes of the cover in the summary.
 void summarizeCover(const Parameters& params, CoreOutput& out)
 {
@@ -353,6 +377,10 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
     coverToTargetSize(in, params, report, out);
   s.timings.cover = secondsSince(t);
   report("cover", 1.0);
+  t = Clock::now();
+  report("deviation", 0.0);
+  measureDeviation(in, params, out);
+  s.timings.deviation = secondsSince(t);
   summarizeCover(params, out);
   return Status::Ok;
 }
@@ -377,6 +405,10 @@ void unscaleSummary(Summary& s, double scale)
   s.bbox_diagonal /= scale;
   s.max_gap /= scale;
   s.mean_abs_curvature *= scale;
+  s.deviation_max /= scale;
+  s.deviation_p99 /= scale;
+  s.deviation_rms /= scale;
+  s.max_deviation /= scale;
 }
 
 }  // namespace pcl_ecs

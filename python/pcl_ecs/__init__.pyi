@@ -24,6 +24,8 @@ class Parameters:
     max_roughness: float
     max_gap_factor: float
     target_gap_factor: float
+    max_deviation: Union[float, str]
+    report_deviation: bool
     seed: int
     use_input_normals: bool
     threads: int
@@ -61,6 +63,8 @@ def simplify(
     max_roughness: float = 0.2,
     max_gap_factor: float = 1.0,
     target_gap_factor: float = 0.6,
+    max_deviation: Union[float, str] = 0.0,
+    report_deviation: bool = False,
     seed: int = 42,
     use_input_normals: bool = False,
     threads: int = 0,

@@ -162,8 +162,10 @@ def summary_line(output: str, s: Dict[str, Any], error_threshold: float) -> str:
 
 def _method_flags():
     """The method's parameters as pcd_simplify spells them (the C++ parameter table), without the
-    target-size ones (the out-of-core run takes a T_err)."""
-    return [row for row in _core._parameter_table() if not row["name"].startswith("target-")]
+    target-size ones (the out-of-core run takes a T_err) and the deviation's (measured in memory
+    only)."""
+    return [row for row in _core._parameter_table()
+            if not row["name"].startswith("target-") and row["name"] not in ("max-deviation", "report-deviation")]
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

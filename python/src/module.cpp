@@ -402,6 +402,27 @@ NB_MODULE(_core, m)
       .def_rw("max_roughness", &Parameters::max_roughness)
       .def_rw("max_gap_factor", &Parameters::max_gap_factor)
       .def_rw("target_gap_factor", &Parameters::target_gap_factor)
+      .def_prop_rw(
+          "max_deviation",
+          [](const Parameters& p) -> nb::object {
+            // A number in the input's units, or "P%" of L: the same two forms as --max-deviation.
+            if (p.max_deviation_of_L > 0.0)
+              return nb::str(pcl_ecs::parameterText(*pcl_ecs::findParameter("max-deviation"), p).c_str());
+            return nb::float_(p.max_deviation);
+          },
+          [](Parameters& p, nb::handle value) {
+            std::string text;
+            if (nb::isinstance<nb::str>(value))
+              text = nb::cast<std::string>(value);
+            else if (nb::isinstance<nb::float_>(value) || nb::isinstance<nb::int_>(value))
+              text = nb::cast<std::string>(nb::str(value));
+            else
+              throw nb::type_error("max_deviation must be a number (input units) or a string \"P%\"");
+            const std::string why = pcl_ecs::setParameter(*pcl_ecs::findParameter("max-deviation"), text, p);
+            if (!why.empty())
+              throw nb::value_error(("max_deviation: " + why).c_str());
+          })
+      .def_rw("report_deviation", &Parameters::report_deviation)
       .def_rw("seed", &Parameters::seed)
       .def_rw("use_input_normals", &Parameters::use_input_normals)
       .def_rw("threads", &Parameters::threads)

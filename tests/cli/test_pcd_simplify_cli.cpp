@@ -25,6 +25,8 @@
 #include <thread>
 
 #include <gtest/gtest.h>
+#include <Eigen/Eigenvalues>
+#include <pcl/kdtree/kdtree_flann.h>
 #include <nlohmann/json.hpp>
 #include <pcl/common/io.h>
 #include <pcl/conversions.h>
@@ -342,6 +344,73 @@ TEST_F(Cli, ContradictoryFlagsAreUsageErrors)
   expectRefused(in + out + " --target-gap 0.5", 2, none, "only with --target-size");
   expectRefused(in + out + " --no-adapt --adapt-factor 3", 2, none, "exclude each other");
   expectRefused(in + out + " --quiet=yes", 2, none, "takes no value");
+  expectRefused(in + out + " --max-deviation 0.1% --target-ratio 0.1", 2, none, "exclude each other");
+  expectRefused(in + out + " --max-deviation 1e-4 --target-size 500", 2, none, "exclude each other");
+  expectRefused(in + out + " --max-deviation 150%", 2, none, "max_deviation");
+  expectRefused(in + out + " --max-deviation x%", 2, none, "not a number or a percentage");
+}
+
+TEST_F(Cli, MaxDeviationHoldsOnEverySharedScan)
+{
+  // Every shared scan with --max-deviation 0.5% of L: the reported maximum is within the bound,
+  // and so is every tenth input point measured independently on the files as PCL reads them
+  // (a k-d tree over the output, the plane of the 8 nearest by Eigen's iterative solver), up to
+  // the rounding of the coordinates the files hold.
+  std::size_t checked = 0;
+  for (const auto& e : fs::directory_iterator(kShared))
+  {
+    if (e.path().extension() != ".pcd")
+      continue;
+    const std::string name = e.path().filename().string();
+    const RunResult r = run(e.path().string() + " " + path("o.pcd") + " --max-deviation 0.5% --stats " +
+                            path("s.json"));
+    ASSERT_EQ(r.code, 0) << name << ": " << r.err;
+    EXPECT_NE(r.out.find("deviation max"), std::string::npos) << r.out;
+    const auto j = nlohmann::json::parse(slurp(path("s.json")));
+    const double L = j["geometry"]["bbox_diagonal"].get<double>();
+    const double bound = j["deviation"]["bound"].get<double>();
+    EXPECT_NEAR(bound, 0.005 * L, 1e-9 * L) << name;
+    EXPECT_LE(j["deviation"]["max"].get<double>(), bound) << name;
+    EXPECT_EQ(j["parameters"]["max-deviation"].get<std::string>(), "0.5%");
+
+    pcl::PointCloud<pcl::PointXYZ> input, output;
+    pcl::fromPCLPointCloud2(load(e.path().string()), input);
+    pcl::fromPCLPointCloud2(load(path("o.pcd")), output);
+    double extent = 0.0;
+    for (const auto& q : input)
+      if (std::isfinite(q.x))
+        extent = std::max(extent, static_cast<double>(q.getVector3fMap().cwiseAbs().maxCoeff()));
+    const double rounding = 16.0 * extent * std::numeric_limits<float>::epsilon();
+    pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+    tree.setInputCloud(output.makeShared());
+    std::vector<int> idx;
+    std::vector<float> d2;
+    double worst = 0.0;
+    for (std::size_t i = 0; i < input.size(); i += 10)
+    {
+      const auto& q = input[i];
+      if (!std::isfinite(q.x) || !std::isfinite(q.y) || !std::isfinite(q.z))
+        continue;
+      tree.nearestKSearch(q, 8, idx, d2);
+      const Eigen::Vector3d p = q.getVector3fMap().cast<double>();
+      Eigen::Vector3d c = Eigen::Vector3d::Zero();
+      for (const int k : idx)
+        c += output[static_cast<std::size_t>(k)].getVector3fMap().cast<double>();
+      c /= static_cast<double>(idx.size());
+      Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+      for (const int k : idx)
+      {
+        const Eigen::Vector3d v = output[static_cast<std::size_t>(k)].getVector3fMap().cast<double>() - c;
+        cov += v * v.transpose();
+      }
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+      const double plane = std::abs((p - c).dot(es.eigenvectors().col(0)));
+      worst = std::max(worst, std::min(plane, std::sqrt(static_cast<double>(d2[0]))));
+    }
+    EXPECT_LE(worst, bound + rounding) << name;
+    ++checked;
+  }
+  EXPECT_GE(checked, 20u);
 }
 
 TEST_F(Cli, FlagEqualsValueIsTheSameAsTwoWords)

@@ -78,12 +78,13 @@ def test_float32_and_float64_give_the_same_cloud():
 def test_every_parameter_is_a_keyword_that_round_trips():
     defaults = pcl_ecs.Parameters()
     names = pcl_ecs.parameter_names()
-    assert "error_threshold" in names and "target_size" in names and len(names) == 17
+    assert "error_threshold" in names and "target_size" in names and len(names) == 19
     changed = {"error_threshold": 0.002, "feature_factor": 5.0, "k_neighbors": 12, "error_form": "paper",
                "adaptive": False, "adaptive_factor": 3.0, "radius_cap_factor": 4.0, "target_radius_cap": 2.0,
                "max_representative_offset": 0.7, "representative_cutoff": 0.1, "max_roughness": 0.3,
                "max_gap_factor": 0.8, "target_gap_factor": 0.5, "seed": 7, "threads": 1,
-               "use_input_normals": False, "target_size": 0}
+               "use_input_normals": False, "target_size": 0, "max_deviation": 0.05,
+               "report_deviation": True}
     assert set(changed) == set(names)
     r = pcl_ecs.simplify(sphere_with_cap(), **changed)
     # The summary spells every parameter as pcd_simplify's flag (one table for both).
@@ -243,6 +244,37 @@ def test_example_open3d_point_cloud_round_trip():
     assert len(small.points) == len(r.points)
     assert abs(len(r.points) - 600) <= 60
     assert np.array_equal(np.asarray(small.colors), np.asarray(pcd.colors)[r.source_index])
+
+
+def test_max_deviation_holds_and_is_reported():
+    # In the input's units and as a percentage of L: every input point within the bound of the
+    # output's surface, measured by the library and reported in the summary; checked here against
+    # an independent measure (numpy: the plane of each point's 8 nearest output points).
+    pts = sphere_with_cap()
+    plain = pcl_ecs.simplify(pts, report_deviation=True)
+    dev = plain.summary["deviation"]
+    assert dev is not None and dev["max"] > 0 and dev["bound"] == 0
+    bound = 0.25 * dev["max"]
+    for value in (bound, f"{100 * bound / plain.summary['geometry']['bbox_diagonal']!r}%"):
+        r = pcl_ecs.simplify(pts, max_deviation=value)
+        d = r.summary["deviation"]
+        assert d["max"] <= bound * (1 + 1e-9) and d["added_points"] > 0
+        assert len(r.points) > len(plain.points)
+        # Independent check with numpy.
+        out = r.points
+        worst = 0.0
+        for q in pts[::7]:
+            d2 = ((out - q) ** 2).sum(axis=1)
+            near = np.argsort(d2)[:8]
+            c = out[near].mean(axis=0)
+            n = np.linalg.eigh(np.cov((out[near] - c).T, bias=True))[1][:, 0]
+            worst = max(worst, min(abs((q - c) @ n), float(np.sqrt(d2.min()))))
+        assert worst <= bound + 1e-6  # float coordinates in the library's local frame
+    assert pcl_ecs.simplify(pts).summary["deviation"] is None
+    with pytest.raises(ValueError, match="target_size"):
+        pcl_ecs.simplify(pts, max_deviation=bound, target_size=100)
+    with pytest.raises(ValueError, match="max_deviation"):
+        pcl_ecs.simplify(pts, max_deviation="abc")
 
 
 def test_the_type_stubs_name_every_parameter_with_the_library_default():

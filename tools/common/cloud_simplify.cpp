@@ -184,6 +184,8 @@ nlohmann::json parametersJson(const Parameters& p)
             j[info.name] = p.*member == info.switch_value;  // the switch is given
           else if constexpr (std::is_same<T, ErrorForm>::value)
             j[info.name] = toString(p.*member);
+          else if (p.max_deviation_of_L > 0.0 && info.name == std::string("max-deviation"))
+            j[info.name] = parameterText(info, p);  // "P%": a fraction of L
           else
             j[info.name] = p.*member;
         },
@@ -225,11 +227,19 @@ nlohmann::json runStatsJson(const Summary& s, const Parameters& p, double target
                    {"mean_abs_curvature", s.mean_abs_curvature},
                    {"max_error", s.max_error},
                    {"max_error_units", s.max_error * s.bbox_diagonal}};
+  // Every input point's distance to the output's surface, input units (null when not measured).
+  j["deviation"] = s.deviation_measured ? nlohmann::json{{"max", s.deviation_max},
+                                                         {"p99", s.deviation_p99},
+                                                         {"rms", s.deviation_rms},
+                                                         {"bound", s.max_deviation},
+                                                         {"added_points", s.deviation_points}}
+                                        : nlohmann::json(nullptr);
   j["timings_s"] = {{"preparation", t.preparation}, {"neighbors", t.neighbors},
                     {"normals", t.normals},         {"weights", t.weights},
                     {"features", t.features},       {"density", t.density},
                     {"curvature", t.curvature},     {"cover", t.cover},
-                    {"output", t.output},           {"total", t.total}};
+                    {"deviation", t.deviation},     {"output", t.output},
+                    {"total", t.total}};
   return j;
 }
 

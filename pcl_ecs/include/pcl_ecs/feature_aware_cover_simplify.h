@@ -92,6 +92,26 @@ public:
   double getMaxGapFactor() const { return params_.max_gap_factor; }
   void setTargetGapFactor(double factor) { params_.target_gap_factor = factor; }
   double getTargetGapFactor() const { return params_.target_gap_factor; }
+
+  /** \brief Every input point within `distance` (input units) of the output's surface
+   * (Parameters::max_deviation; 0 = off); the measured deviation is in getResult().summary. */
+  void setMaxDeviation(double distance)
+  {
+    params_.max_deviation = distance;
+    params_.max_deviation_of_L = 0.0;
+  }
+  /** \brief The same bound as a fraction of the bounding box's diagonal
+   * (Parameters::max_deviation_of_L). */
+  void setMaxDeviationOfDiagonal(double fraction)
+  {
+    params_.max_deviation_of_L = fraction;
+    params_.max_deviation = 0.0;
+  }
+  double getMaxDeviation() const { return params_.max_deviation; }
+  double getMaxDeviationOfDiagonal() const { return params_.max_deviation_of_L; }
+  /** \brief Measure and report the deviation without a bound (Parameters::report_deviation). */
+  void setReportDeviation(bool on) { params_.report_deviation = on; }
+  bool getReportDeviation() const { return params_.report_deviation; }
   /** \brief With a target size: radius cap = factor × the spacing the target implies (0: use the
    * radius cap factor). */
   void setTargetRadiusCap(double factor) { params_.target_radius_cap = factor; }

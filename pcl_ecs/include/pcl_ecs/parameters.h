@@ -114,6 +114,21 @@ struct Parameters
    * search widens it in ×1.1 steps up to the cap. 0 turns it off. Range: 0 or (0, 100]. Default 0.6. */
   double target_gap_factor = 0.6;
 
+  /** \brief A bound on the error a user means: every input point ends within this distance (input
+   * units) of the output's surface (stages/surface_deviation.h: the plane of its 8 nearest output
+   * points, or its nearest output point when closer); points that would lie farther become output
+   * points of their own. 0 (default) measures and reports the deviation without bounding it.
+   * Not with a target size (the points it adds change the size). Range: 0 or > 0. */
+  double max_deviation = 0.0;
+  /** \brief The same bound as a fraction of L, the bounding box's diagonal (`--max-deviation 0.1%`
+   * is 0.001); at most one of the two is set. Range: 0 or (0, 1]. */
+  double max_deviation_of_L = 0.0;
+
+  /** \brief Measure every input point's deviation and report it (Summary::deviation_max, _p99,
+   * _rms) without a bound; always done with a bound. Off by default: the measure costs about a
+   * third of a plain run. Never changes the output. */
+  bool report_deviation = false;
+
   /** \brief Seed of the order in which ball centres are picked (step 3). Same seed, same input,
    * same parameters: the same output bit for bit, whatever the thread count. */
   std::uint64_t seed = 42;

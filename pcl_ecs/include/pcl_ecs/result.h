@@ -43,6 +43,7 @@ struct StageTimings
   double density = 0;      ///< eq. 5-6
   double curvature = 0;    ///< eq. 7-12
   double cover = 0;        ///< steps 2-7 (all T_err tried, in target-size mode)
+  double deviation = 0;    ///< measuring every input point's deviation (and holding max_deviation)
   double output = 0;       ///< assembling the output cloud
   double total = 0;
 };
@@ -68,6 +69,13 @@ struct Summary
   double bbox_diagonal = 0;          ///< L
   double error_threshold = 0;        ///< T_err used (the one found, in target-size mode)
   double max_error = 0;              ///< largest E(r) over all balls
+  /// Every input point's distance to the output's surface (stages/surface_deviation.h: to the
+  /// plane of its 8 nearest output points, or its nearest output point when closer), input units:
+  /// the largest, the 99th percentile and the RMS over the distinct input points
+  double deviation_max = 0, deviation_p99 = 0, deviation_rms = 0;
+  bool deviation_measured = false;   ///< the three above were measured (max_deviation or report_deviation)
+  double max_deviation = 0;          ///< the deviation bound held (input units; 0: none asked for)
+  std::size_t deviation_points = 0;  ///< of the balls, those of radius 0 added to hold it
   int target_iterations = 0;         ///< trials of the target-size search (T, cap, gap bound)
   int cover_passes = 0;              ///< of those, the ones that ran the cover (others reused it)
   std::size_t target_size = 0;       ///< the size asked for (0: T_err mode)

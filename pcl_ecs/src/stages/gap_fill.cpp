@@ -106,6 +106,35 @@ std::vector<std::size_t> closeGaps(const std::vector<Eigen::Vector3d>& outputs,
   return kept;
 }
 
+std::vector<Eigen::Vector3d> outputPositions(const CoverInput& in, const CoverOutput& out)
+{
+  std::vector<Eigen::Vector3d> outputs;
+  outputs.reserve(out.balls.size());
+  for (std::size_t i = 0; i < in.cloud.size(); ++i)
+    if (in.is_feature[i])
+      outputs.push_back(in.cloud[i].getVector3fMap().cast<double>());
+  for (const CoverBall& b : out.balls)
+    outputs.push_back(b.representative);
+  return outputs;
+}
+
+void addPointBall(const CoverInput& in, const Parameters& params, double error_threshold, std::size_t i,
+                  CoverOutput& out)
+{
+  CoverBall b;
+  b.centre = static_cast<int>(i);
+  b.tolerance = adaptTolerance(error_threshold, params.adaptive, params.adaptive_factor, in.curvature[i],
+                               in.mean_abs_curvature, in.density[i], in.mean_density);
+  b.representative = in.cloud[i].getVector3fMap().cast<double>();
+  b.used_centre = true;
+  b.attribute_source = static_cast<int>(i);
+  b.normal = in.normals[i];
+  b.replaced = 1;
+  --out.balls[static_cast<std::size_t>(out.owner[i])].replaced;
+  out.owner[i] = static_cast<int>(out.balls.size());
+  out.balls.push_back(b);
+}
+
 std::size_t fillGaps(const CoverInput& in, const Parameters& params, double error_threshold, double gap,
                      CoverOutput& out)
 {
@@ -113,13 +142,7 @@ std::size_t fillGaps(const CoverInput& in, const Parameters& params, double erro
     return 0;
   const std::size_t n = in.cloud.size();
   auto position = [&](std::size_t i) { return Eigen::Vector3d(in.cloud[i].getVector3fMap().cast<double>()); };
-  std::vector<Eigen::Vector3d> outputs;
-  outputs.reserve(out.balls.size());
-  for (std::size_t i = 0; i < n; ++i)
-    if (in.is_feature[i])
-      outputs.push_back(position(i));
-  for (const CoverBall& b : out.balls)
-    outputs.push_back(b.representative);
+  const std::vector<Eigen::Vector3d> outputs = outputPositions(in, out);
   // Candidates, in cloud order: covered points farther than the gap from their own representative
   // (the others are within it of an output point already).
   const double gap2 = gap * gap;
@@ -139,21 +162,7 @@ std::size_t fillGaps(const CoverInput& in, const Parameters& params, double erro
   }
   const std::vector<std::size_t> kept = closeGaps(outputs, candidates, gap, resolveThreads(params.threads));
   for (const std::size_t c : kept)
-  {
-    const std::size_t i = index[c];
-    CoverBall b;
-    b.centre = static_cast<int>(i);
-    b.tolerance = adaptTolerance(error_threshold, params.adaptive, params.adaptive_factor, in.curvature[i],
-                                 in.mean_abs_curvature, in.density[i], in.mean_density);
-    b.representative = candidates[c];
-    b.used_centre = true;
-    b.attribute_source = static_cast<int>(i);
-    b.normal = in.normals[i];
-    b.replaced = 1;
-    --out.balls[static_cast<std::size_t>(out.owner[i])].replaced;
-    out.owner[i] = static_cast<int>(out.balls.size());
-    out.balls.push_back(b);
-  }
+    addPointBall(in, params, error_threshold, index[c], out);
   return kept.size();
 }
 

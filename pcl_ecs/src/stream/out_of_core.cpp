@@ -89,6 +89,9 @@ void Runner::prepare(bool plan_if_missing)
             "sample of the scan first (docs/STREAMING.md)");
   if (params_.use_input_normals)
     failRun("--stream estimates the normals; --use-input-normals is not supported with it");
+  if (params_.max_deviation > 0.0 || params_.max_deviation_of_L > 0.0 || params_.report_deviation)
+    failRun("--stream does not measure or bound the deviation (--max-deviation, --report-deviation); run in "
+            "memory for those");
   const int threads = resolveThreads(params_.threads);
   threads_ = threads;
   workers_ = std::min(threads, kConcurrentTiles);

@@ -256,8 +256,10 @@ void FeatureAwareCoverSimplify<PointT>::applyFilter(PointCloud& output)
 
     // 2. The method.
     CoreOutput core;
+    Parameters local_params = params_;  // lengths in the local frame's units
+    local_params.max_deviation *= frame.scale;
     const Status status = simplifyLocal(frame.local, params_.use_input_normals ? &frame.input_normals : nullptr,
-                                        params_, progress_, core);
+                                        local_params, progress_, core);
     if (status != Status::Ok)
       return fail(core.error);
 

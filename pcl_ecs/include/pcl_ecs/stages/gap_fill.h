@@ -32,6 +32,17 @@ std::vector<std::uint8_t> farFrom(const std::vector<Eigen::Vector3d>& outputs,
 std::vector<std::size_t> closeGaps(const std::vector<Eigen::Vector3d>& outputs,
                                    const std::vector<Eigen::Vector3d>& candidates, double gap, int threads);
 
+/** \brief The output's positions: the feature points of `in` (cloud order), then the balls'
+ * representatives (ball order). */
+std::vector<Eigen::Vector3d> outputPositions(const CoverInput& in, const CoverOutput& out);
+
+/** \brief Makes input point `i` (a covered, non-feature point) an output point of its own: a ball
+ * of radius 0 centred on it, with the tolerance its centre would get (error_threshold adapted as
+ * in the cover), its own attributes, taking the point over from its previous ball (owner and
+ * `replaced` updated). */
+void addPointBall(const CoverInput& in, const Parameters& params, double error_threshold, std::size_t i,
+                  CoverOutput& out);
+
 /** \brief Add radius-0 balls until every point covered by `out` lies within `gap` of an output
  * point (a feature point of `in` or a representative of `out`); the added balls take over their
  * point from its previous ball (owner and `replaced` updated). `gap` <= 0 does nothing. The tolerance
