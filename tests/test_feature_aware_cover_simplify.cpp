@@ -34,6 +34,15 @@ Cloud::Ptr scaledCopy(const Cloud& c, float factor)
   return out;
 }
 
+/// The cloud × k, computed in double (for factors float cannot hold well: 1e-24, 1e30).
+Cloud::Ptr scaledByDouble(const Cloud& c, double k)
+{
+  auto out = std::make_shared<Cloud>();
+  for (const auto& p : c)
+    out->push_back(pcl::PointXYZ(static_cast<float>(p.x * k), static_cast<float>(p.y * k), static_cast<float>(p.z * k)));
+  return out;
+}
+
 Cloud run(const Cloud::Ptr& in, Filter& f)
 {
   Cloud out;
@@ -688,22 +697,14 @@ TEST(Filter, ManyPointsAtOneSpotAreOnePoint)
 // reported a zero error before), with lengths reported in the input's units.
 TEST(Filter, ExtremeScalesGiveTheUnitScaleResult)
 {
-  auto bunny = std::make_shared<Cloud>();
-  ASSERT_EQ(pcl::io::loadPCDFile(sharedData("bunny.pcd"), *bunny), 0);
+  const Cloud::Ptr bunny = loadShared("bunny.pcd");
   Filter unit;
-  Cloud out_unit;
-  unit.setInputCloud(bunny);
-  unit.filter(out_unit);
+  const Cloud out_unit = run(bunny, unit);
   const pcl_ecs::Summary ref = unit.getResult().summary;
   for (const double k : {1e-24, 1e-8, 1e8, 1e30})
   {
-    auto scaled = std::make_shared<Cloud>();
-    for (const auto& p : *bunny)
-      scaled->push_back(pcl::PointXYZ(static_cast<float>(p.x * k), static_cast<float>(p.y * k), static_cast<float>(p.z * k)));
     Filter f;
-    Cloud out;
-    f.setInputCloud(scaled);
-    f.filter(out);
+    const Cloud out = run(scaledByDouble(*bunny, k), f);
     ASSERT_TRUE(f.getResult().error.empty()) << k << ": " << f.getResult().error;
     const pcl_ecs::Summary& s = f.getResult().summary;
     EXPECT_NEAR(static_cast<double>(out.size()), static_cast<double>(out_unit.size()), 0.01 * out_unit.size()) << k;
@@ -733,15 +734,12 @@ TEST(Filter, MaxDeviationHoldsInTheInputsUnitsAtEveryScale)
   // The bunny at its own scale and at 1e8 × (a local frame scaled by a power of four): the bound
   // in input units, or as a fraction of L, holds and is reported in input units; without a bound
   // nothing is measured unless asked for.
-  auto bunny = std::make_shared<Cloud>();
-  ASSERT_EQ(pcl::io::loadPCDFile(sharedData("bunny.pcd"), *bunny), 0);
+  const Cloud::Ptr bunny = loadShared("bunny.pcd");
   Filter plain;
-  Cloud out_plain;
-  plain.setInputCloud(bunny);
-  plain.filter(out_plain);
+  Cloud out_plain = run(bunny, plain);
   EXPECT_FALSE(plain.getResult().summary.deviation_measured);
   plain.setReportDeviation(true);
-  plain.filter(out_plain);
+  out_plain = run(bunny, plain);
   const pcl_ecs::Summary& ref = plain.getResult().summary;
   ASSERT_TRUE(ref.deviation_measured);
   EXPECT_EQ(ref.deviation_points, 0u);
@@ -750,14 +748,10 @@ TEST(Filter, MaxDeviationHoldsInTheInputsUnitsAtEveryScale)
   const double bound = 0.4 * ref.deviation_max;
   for (const double k : {1.0, 1e8})
   {
-    auto scaled = std::make_shared<Cloud>();
-    for (const auto& p : *bunny)
-      scaled->push_back(pcl::PointXYZ(static_cast<float>(p.x * k), static_cast<float>(p.y * k), static_cast<float>(p.z * k)));
+    const Cloud::Ptr scaled = scaledByDouble(*bunny, k);
     Filter f;
-    Cloud out;
-    f.setInputCloud(scaled);
     f.setMaxDeviation(bound * k);
-    f.filter(out);
+    const Cloud out = run(scaled, f);
     ASSERT_TRUE(f.getResult().error.empty()) << f.getResult().error;
     const pcl_ecs::Summary& s = f.getResult().summary;
     EXPECT_TRUE(s.deviation_measured);
@@ -768,10 +762,8 @@ TEST(Filter, MaxDeviationHoldsInTheInputsUnitsAtEveryScale)
     EXPECT_GT(out.size(), out_plain.size());
     // The same bound as a fraction of L.
     Filter g;
-    Cloud out_g;
-    g.setInputCloud(scaled);
     g.setMaxDeviationOfDiagonal(bound * k / s.bbox_diagonal);
-    g.filter(out_g);
+    run(scaled, g);
     EXPECT_NEAR(g.getResult().summary.max_deviation, bound * k, 1e-6 * bound * k) << k;
     EXPECT_LE(g.getResult().summary.deviation_max, g.getResult().summary.max_deviation) << k;
   }
