@@ -535,6 +535,30 @@ TEST(Filter, TargetSearchWidensTheGapInFewCovers)
   EXPECT_LE(s.cover_passes, 6);
 }
 
+// Each cover predicts where the next should go (cover_size_model.h): on scans where the gap
+// points bind at the start, the gap bound widens at the starting T_err and one predicted step
+// reaches the size; a T_err whose cover is kept is tried on the way to a prediction (on the
+// terrain at 3% the prediction from a saturated cover overshoots past one).
+TEST(Filter, TargetSearchReachesTheSizeInFewCovers)
+{
+  struct Case
+  {
+    const char* name;
+    std::size_t target;  // 10% or 3% of the distinct points (pcd_simplify --target-ratio)
+    int max_passes;
+  };
+  for (const Case& c : {Case{"elephant_scan.pcd", 15000, 2}, Case{"fertility_scan.pcd", 4500, 2},
+                        Case{"terrain_csite1_utm.pcd", 12899, 3}})
+  {
+    Filter f;
+    f.setTargetSize(c.target);
+    run(loadShared(c.name), f);
+    const auto& s = f.getResult().summary;
+    EXPECT_TRUE(s.target_reached) << c.name;
+    EXPECT_LE(s.cover_passes, c.max_passes) << c.name;
+  }
+}
+
 // The target-size search reuses covers (a gap bound widened at the same T and cap, a T tried
 // before) and stops probing T on a saturated cover: what it returns is exactly the plain run at
 // the T, cap and gap bound it settled on, on shapes where the gap, the cap and T each decide, and
@@ -766,5 +790,35 @@ TEST(Filter, MaxDeviationHoldsInTheInputsUnitsAtEveryScale)
     run(scaled, g);
     EXPECT_NEAR(g.getResult().summary.max_deviation, bound * k, 1e-6 * bound * k) << k;
     EXPECT_LE(g.getResult().summary.deviation_max, g.getResult().summary.max_deviation) << k;
+  }
+}
+
+TEST(Filter, TErrInInputUnitsIsTheFractionOfTheDiagonal)
+{
+  // --terr-abs D is --terr D / L: the same output, point for point, at the bunny's scale and at
+  // 1e8 × (a scaled local frame); a D not below L is refused with a message.
+  const Cloud::Ptr bunny = loadShared("bunny.pcd");
+  for (const double k : {1.0, 1e8})
+  {
+    const Cloud::Ptr scaled = scaledByDouble(*bunny, k);
+    Filter rel;
+    rel.setErrorThreshold(2e-3);
+    const Cloud a = run(scaled, rel);
+    const double L = rel.getResult().summary.bbox_diagonal;
+    pcl_ecs::Parameters p;
+    p.error_threshold_abs = 2e-3 * L;
+    Filter abs;
+    abs.setParameters(p);
+    const Cloud b = run(scaled, abs);
+    ASSERT_TRUE(abs.getResult().error.empty()) << abs.getResult().error;
+    EXPECT_NEAR(abs.getResult().summary.error_threshold, 2e-3, 1e-15) << k;
+    ASSERT_EQ(a.size(), b.size()) << k;
+    for (std::size_t i = 0; i < a.size(); ++i)
+      EXPECT_EQ(a[i].getVector3fMap(), b[i].getVector3fMap()) << k << " " << i;
+    p.error_threshold_abs = 1.5 * L;
+    Filter too_big;
+    too_big.setParameters(p);
+    EXPECT_TRUE(run(scaled, too_big).empty());
+    EXPECT_NE(too_big.getResult().error.find("T_err must be below 1"), std::string::npos) << too_big.getResult().error;
   }
 }

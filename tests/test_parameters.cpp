@@ -104,7 +104,7 @@ TEST(Parameters, ResolveThreads)
 TEST(ParameterTable, EveryRowRoundTripsItsTextAndNamesItsFieldWhenOutOfRange)
 {
   const auto& table = pcl_ecs::parameterTable();
-  EXPECT_EQ(table.size(), 19u);
+  EXPECT_EQ(table.size(), 20u);
   std::set<std::string> names, fields;
   const Parameters defaults;
   for (const pcl_ecs::ParameterInfo& info : table)
@@ -149,6 +149,7 @@ TEST(ParameterTable, EveryRowRoundTripsItsTextAndNamesItsFieldWhenOutOfRange)
                        Bad{"threads", "1025", "threads = 1025 is invalid"},
                        Bad{"target-cap", "-2", "target_radius_cap = -2 is invalid"},
                        Bad{"max-deviation", "-0.1", "max_deviation = -0.1 is invalid"},
+                       Bad{"terr-abs", "-2", "error_threshold_abs = -2 is invalid"},
                        Bad{"max-deviation", "101%", "max_deviation_of_L = 1.01, a fraction of L in (0, 1]"}})
   {
     Parameters p;

@@ -38,7 +38,12 @@ public:
   {
     return predict ? predict(terr) : std::numeric_limits<double>::quiet_NaN();
   }
+  bool keepsCover(double terr, double) const override
+  {
+    return std::find(kept_terrs.begin(), kept_terrs.end(), terr) != kept_terrs.end();
+  }
   std::function<double(double)> predict;  ///< none: the counter cannot predict
+  std::vector<double> kept_terrs;         ///< T whose trials count as cheap
   struct Trial
   {
     double terr, cap, gap;

@@ -22,6 +22,11 @@ std::vector<ParameterInfo> makeTable()
   return {
       {"terr", "error_threshold", "T_err", &P::error_threshold, "T", false, 0, 1, true, true, false, "in (0, 1)",
        "error bound T_err, a fraction of the bounding-box diagonal L; larger keeps fewer points", true},
+      {"terr-abs", "error_threshold_abs", "", &P::error_threshold_abs, "D", false, 0, kInf, true, false, true,
+       "0 (off) or > 0 (input units)",
+       "T_err in the input's units instead of a fraction of L (it becomes D / L, which must be below 1); "
+       "0 = use --terr",
+       true},
       {"alpha", "feature_factor", "alpha", &P::feature_factor, "A", false, 0, kInf, true, true, false,
        "a finite number > 0", "feature factor α of eq. 4; larger keeps fewer feature points", true},
       {"k", "k_neighbors", "K", &P::k_neighbors, "K", false, 5, 200, false, false, false, "an integer in [5, 200]",
@@ -271,6 +276,8 @@ std::string validate(const Parameters& p)
          << "max_deviation as well)";
     return os.str();
   }
+  if (p.error_threshold_abs > 0.0 && p.target_size > 0)
+    return "error_threshold_abs cannot be combined with target_size: give the error bound or the size";
   if ((p.max_deviation > 0.0 || p.max_deviation_of_L > 0.0) && p.target_size > 0)
     return "max_deviation cannot be combined with target_size: the points it adds change the size";
   return {};

@@ -112,6 +112,11 @@ public:
       return std::numeric_limits<double>::quiet_NaN();
     return model_.count(terr / model_terr_);
   }
+  bool keepsCover(double terr, double cap_factor) const override
+  {
+    return std::any_of(covers_.begin(), covers_.end(),
+                       [&](const CachedCover& c) { return c.terr == terr && c.cap == cap_factor; });
+  }
   int coverPasses() const { return passes_; }
 
 private:
@@ -367,21 +372,35 @@ Status simplifyLocal(const LocalCloud::ConstPtr& cloud_ptr, const NormalList* in
   computeDensityAndCurvature(cloud, tree, threads, table, report, stats, out);
   table = NeighborhoodTable{};  // the cover does not read it: 4 K bytes a point less at its peak
 
+  // T_err in input units (Parameters::error_threshold_abs): a fraction of L from here on.
+  Parameters run_params = params;
+  if (params.error_threshold_abs > 0.0)
+  {
+    run_params.error_threshold = params.error_threshold_abs / s.bbox_diagonal;
+    if (!(run_params.error_threshold < 1.0))
+    {
+      std::ostringstream os;
+      os << "error_threshold_abs is " << run_params.error_threshold
+         << " × the bounding box's diagonal: T_err must be below 1";
+      out.error = os.str();
+      return Status::InvalidArgument;
+    }
+  }
   t = Clock::now();
   report("cover", 0.0);
   const CoverInput in = makeCoverInput(cloud, out.normals, out.weights, out.is_feature, out.curvature, out.density,
                                        stats, s.bbox_diagonal, tree);
   if (params.target_size == 0)
-    coverAtThreshold(in, params, out);
+    coverAtThreshold(in, run_params, out);
   else
-    coverToTargetSize(in, params, report, out);
+    coverToTargetSize(in, run_params, report, out);
   s.timings.cover = secondsSince(t);
   report("cover", 1.0);
   t = Clock::now();
   report("deviation", 0.0);
-  measureDeviation(in, params, out);
+  measureDeviation(in, run_params, out);
   s.timings.deviation = secondsSince(t);
-  summarizeCover(params, out);
+  summarizeCover(run_params, out);
   return Status::Ok;
 }
 

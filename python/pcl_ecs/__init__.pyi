@@ -12,6 +12,7 @@ laz_supported: bool
 
 class Parameters:
     error_threshold: float
+    error_threshold_abs: float
     feature_factor: float
     k_neighbors: int
     error_form: str
@@ -51,6 +52,7 @@ def simplify(
     intensity: Optional[npt.ArrayLike] = None,
     target_ratio: Optional[float] = None,
     error_threshold: float = 0.001,
+    error_threshold_abs: float = 0.0,
     feature_factor: float = 6.0,
     k_neighbors: int = 16,
     error_form: Literal["normalized", "paper"] = "normalized",

@@ -385,6 +385,7 @@ NB_MODULE(_core, m)
   nb::class_<Parameters>(m, "Parameters", "Every parameter of the method, with the C++ library's defaults")
       .def(nb::init<>())
       .def_rw("error_threshold", &Parameters::error_threshold)
+      .def_rw("error_threshold_abs", &Parameters::error_threshold_abs)
       .def_rw("feature_factor", &Parameters::feature_factor)
       .def_rw("k_neighbors", &Parameters::k_neighbors)
       .def_prop_rw(

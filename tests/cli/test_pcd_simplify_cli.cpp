@@ -348,6 +348,8 @@ TEST_F(Cli, ContradictoryFlagsAreUsageErrors)
   expectRefused(in + out + " --max-deviation 1e-4 --target-size 500", 2, none, "exclude each other");
   expectRefused(in + out + " --max-deviation 150%", 2, none, "max_deviation");
   expectRefused(in + out + " --max-deviation x%", 2, none, "not a number or a percentage");
+  expectRefused(in + out + " --terr-abs 0.001 --terr 1e-3", 2, none, "exclude each other");
+  expectRefused(in + out + " --terr-abs 0.001 --target-ratio 0.1", 2, none, "exclude each other");
 }
 
 TEST_F(Cli, MaxDeviationHoldsOnEverySharedScan)

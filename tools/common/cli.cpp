@@ -72,6 +72,10 @@ void checkFilterFlagConflicts(const ArgWalker& args, bool target_ratio_given)
       throw UsageError(std::string(flag) + " applies only with --target-size or --target-ratio");
   if (args.given("--adapt-factor") && args.given("--no-adapt"))
     throw UsageError("--adapt-factor and --no-adapt exclude each other");
+  if (args.given("--terr-abs") && (target || args.given("--terr")))
+    throw UsageError(std::string("--terr-abs and ") +
+                     (args.given("--terr") ? "--terr" : target_ratio_given ? "--target-ratio" : "--target-size") +
+                     " exclude each other: give one error bound, or the size");
   if (args.given("--max-deviation") && target)
     throw UsageError(std::string("--max-deviation and ") + (target_ratio_given ? "--target-ratio" : "--target-size") +
                      " exclude each other: the points the bound adds change the size");

@@ -38,6 +38,11 @@ struct Parameters
    * from a representative to the tangent planes it replaces. */
   double error_threshold = 1e-3;
 
+  /** \brief T_err in the input's units instead (a distance: survey users think in metres); when
+   * > 0 it replaces error_threshold with error_threshold_abs / L, which must lie in (0, 1). Not with
+   * a target size. Range: 0 (off) or > 0. */
+  double error_threshold_abs = 0.0;
+
   /** \brief α, the feature factor of eq. 4: a point is a feature point when its measure exceeds
    * α times the mean measure. Range: > 0 (values below 1 make most points features).
    * Default 6: on noisy scans of CAD parts α = 3 turns a band several points wide along every

@@ -5,6 +5,7 @@
 #include <limits>
 #include <optional>
 #include <utility>
+#include <vector>
 
 namespace pcl_ecs
 {
@@ -35,6 +36,7 @@ private:
   void solve(double lo, double hi, double b_lo, double b_hi);
   double widenGap(bool gaps_bind);
   std::optional<double> predictedTerr(double from, double from_count);
+  double keptOnTheWay(double from, double to) const;
 
   const TargetSearchSetup& setup_;
   TargetCounter& counter_;
@@ -48,6 +50,7 @@ private:
   // larger T cannot remove enough balls (every other ball is at the cap already).
   std::size_t below_cap_ = 0;
   double last_terr_ = 0.0, last_count_ = 0.0;  // the last trial
+  std::vector<double> tried_;                   // every T tried, in order
   // How much more the count moved than the counter predicted, measured on the last predicted step
   // (log of the change seen over log of the change predicted; 1 until a step measures it), and the
   // step waiting for its count.
@@ -88,6 +91,7 @@ double Search::attempt(double terr)
   pending_.reset();
   last_terr_ = terr;
   last_count_ = static_cast<double>(balls);
+  tried_.push_back(terr);
   ++r_.trials;
   // Nearly saturated (at most 5% of the balls, or the tolerance, below the cap): about the
   // count the cap sets.
@@ -124,7 +128,7 @@ bool Search::bracketUp(double& lo, double& hi, double& b_lo, double& b_hi)
     const std::optional<double> guess = predicted_steps < 2 ? predictedTerr(hi, b_hi) : std::nullopt;
     const bool predicted = guess && *guess > hi;
     predicted_steps = predicted ? predicted_steps + 1 : 0;
-    hi = std::min(predicted ? *guess : hi * 4.0, highest);
+    hi = std::min(predicted ? keptOnTheWay(hi, *guess) : hi * 4.0, highest);
     b_hi = attempt(hi);
     // Saturated: the balls below the cap are too few to matter, or T × 4 removed fewer
     // balls than the tolerance (every ball near the cap).
@@ -158,7 +162,7 @@ bool Search::bracketDown(double& lo, double& hi, double& b_lo, double& b_hi)
     const bool predicted = guess && *guess < lo;
     predicted_steps = predicted ? predicted_steps + 1 : 0;
     if (predicted)
-      factor = lo / *guess;
+      factor = lo / keptOnTheWay(lo, *guess);
     else if (!saturated && p > 0.05)
       factor = std::min(16.0, std::max(1.5, std::pow(wanted_ / std::max(b_lo, 0.5), 1.3 / p)));
     t_prev = lo;
@@ -200,6 +204,18 @@ std::optional<double> Search::predictedTerr(double from, double from_count)
   const double t = std::sqrt(a * b);
   pending_ = PendingPrediction{t, from_count, counter_.predictCount(t)};
   return t;
+}
+
+/// `to`, or the T strictly between `from` and `to` nearest to `to` whose cover at the current cap
+/// the counter keeps: that trial is cheap, and when the prediction overshoots it is closer.
+double Search::keptOnTheWay(double from, double to) const
+{
+  double best = to;
+  for (const double t : tried_)
+    if (std::min(from, to) < t && t < std::max(from, to) && counter_.keepsCover(t, cap_) &&
+        (best == to || std::abs(std::log(t / to)) < std::abs(std::log(best / to))))
+      best = t;
+  return best;
 }
 
 /// Brent's method on g = log((count - floor) / (wanted - floor)) against log T, inside the

@@ -182,6 +182,18 @@ void Runner::prepare(bool plan_if_missing)
   summary_.input_points = plan_.input_points;
   summary_.finite_points = plan_.finite_points;
   summary_.bbox_diagonal = (plan_.hi - plan_.lo).norm();
+  if (params_.error_threshold_abs > 0.0)
+  {
+    // T_err in input units: a fraction of L, as the tiles take it.
+    params_.error_threshold = params_.error_threshold_abs / summary_.bbox_diagonal;
+    if (!(params_.error_threshold < 1.0))
+    {
+      std::ostringstream os;
+      os << "--terr-abs " << params_.error_threshold_abs << " is not below the bounding box's diagonal ("
+         << summary_.bbox_diagonal << "): T_err must be below 1";
+      failRun(os.str());
+    }
+  }
   summary_.halo = plan_.halo;
   summary_.axis_u = plan_.axis_u;
   summary_.axis_v = plan_.axis_v;

@@ -258,6 +258,7 @@ void FeatureAwareCoverSimplify<PointT>::applyFilter(PointCloud& output)
     CoreOutput core;
     Parameters local_params = params_;  // lengths in the local frame's units
     local_params.max_deviation *= frame.scale;
+    local_params.error_threshold_abs *= frame.scale;
     const Status status = simplifyLocal(frame.local, params_.use_input_normals ? &frame.input_normals : nullptr,
                                         local_params, progress_, core);
     if (status != Status::Ok)

@@ -11,7 +11,8 @@
 //     first (as in 2), at the starting T_err, whose cover the counter reuses;
 //  1. at the starting cap and gap bound: bracket T_err from the user's T_err, each step to the T_err
 //     the counter predicts from its last cover for the wanted count (TargetCounter::predictCount;
-//     at most twice in a row, and never by more than ×16), else by ×4 (down by the step two
+//     at most twice in a row, and never by more than ×16; a T_err on the way whose cover the
+//     counter keeps is tried first), else by ×4 (down by the step two
 //     trials' power law gives, when too few); then Brent's method on
 //     log((count − floor) / (wanted − floor)) against log T inside the bracket;
 //  2. while the size is out of reach (the cap or the gap points, not T_err, set the count): widen
@@ -53,6 +54,14 @@ public:
   {
     (void)terr;
     return std::numeric_limits<double>::quiet_NaN();
+  }
+  /// Whether a trial at (`terr`, `cap_factor`) would reuse a cover the counter keeps (a cheap
+  /// trial); false by default.
+  virtual bool keepsCover(double terr, double cap_factor) const
+  {
+    (void)terr;
+    (void)cap_factor;
+    return false;
   }
 };
 
