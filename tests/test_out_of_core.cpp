@@ -666,6 +666,17 @@ TEST_F(OutOfCore, RefusesWhatItCannotDo)
   params.feature_factor = -1;
   EXPECT_THROW(simplifyOutOfCore(path("scan.pcd"), path("x.pcd"), params, opt), std::runtime_error);
   params.feature_factor = 6;
+  // The deviation is measured in memory only; a T_err in units not below L is refused.
+  for (const int what : {0, 1, 2})
+  {
+    Parameters q = params;
+    (what == 0 ? q.max_deviation : what == 1 ? q.max_deviation_of_L : q.error_threshold_abs) = what == 2 ? 1e9 : 1e-3;
+    EXPECT_THROW(simplifyOutOfCore(path("scan.pcd"), path("x.pcd"), q, opt), std::runtime_error) << what;
+  }
+  Parameters report = params;
+  report.report_deviation = true;
+  EXPECT_THROW(simplifyOutOfCore(path("scan.pcd"), path("x.pcd"), report, opt), std::runtime_error);
+  EXPECT_FALSE(fs::exists(path("x.pcd")));
   EXPECT_THROW(simplifyOutOfCore(path("missing.pcd"), path("x.pcd"), params, opt), io::FileError);
   // A directory that is not ours is never wiped: the scratch is made inside it, and only that goes.
   fs::create_directories(path("mine"));
@@ -691,6 +702,23 @@ TEST_F(OutOfCore, RefusesWhatItCannotDo)
   simplifyOutOfCore(path("scan.pcd"), path("y.pcd"), params, opt);
   EXPECT_TRUE(fs::is_directory(path("empty")));
   EXPECT_TRUE(fs::is_empty(path("empty")));
+}
+
+TEST_F(OutOfCore, TErrInInputUnitsIsTheFractionOfTheDiagonal)
+{
+  // --terr-abs D streamed gives the bytes --terr D / L gives.
+  Parameters params;
+  params.error_threshold = 2e-3;
+  StreamOptions opt = tiled("scratch-rel");
+  const StreamSummary rel = simplifyOutOfCore(path("scan.pcd"), path("rel.pcd"), params, opt);
+  Parameters abs;
+  abs.error_threshold_abs = 2e-3 * rel.bbox_diagonal;
+  opt.scratch_dir = path("scratch-abs");
+  simplifyOutOfCore(path("scan.pcd"), path("abs.pcd"), abs, opt);
+  std::ifstream a(path("rel.pcd"), std::ios::binary), b(path("abs.pcd"), std::ios::binary);
+  const std::string sa((std::istreambuf_iterator<char>(a)), {}), sb((std::istreambuf_iterator<char>(b)), {});
+  EXPECT_GT(sa.size(), 0u);
+  EXPECT_TRUE(sa == sb) << "terr-abs gave other bytes than terr";
 }
 
 TEST_F(OutOfCore, TasksRunInAnyValidOrderByAnyRunGiveTheSameBytes)

@@ -144,7 +144,10 @@ private:
   std::uint64_t key(const Eigen::Vector3d& v, bool is_cell = false) const
   {
     const Eigen::Vector3d c = is_cell ? v : Eigen::Vector3d((v * inv_).array().floor());
-    auto u = [](double x) { return static_cast<std::uint64_t>(static_cast<std::int64_t>(x)) & 0x1FFFFFu; };
+    // Clamped before the cast (a cell index beyond ±2^40 only shares its key: distances decide).
+    auto u = [](double x) {
+      return static_cast<std::uint64_t>(static_cast<std::int64_t>(std::max(-1e12, std::min(1e12, x)))) & 0x1FFFFFu;
+    };
     return u(c.x()) | (u(c.y()) << 21) | (u(c.z()) << 42);
   }
   double inv_;
