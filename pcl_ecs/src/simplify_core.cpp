@@ -256,6 +256,8 @@ void coverAtThreshold(const CoverInput& in, const Parameters& params, CoreOutput
   s.cover_passes = 1;
 }
 
+constexpr double kTargetStartTerr = 4e-3;
+
 /// The cover whose size is closest to params.target_size (stages/target_search.h).
 void coverToTargetSize(const CoverInput& in, const Parameters& params, const Report& report, CoreOutput& out)
 {
@@ -273,7 +275,11 @@ void coverToTargetSize(const CoverInput& in, const Parameters& params, const Rep
   TargetSearchSetup setup;
   setup.target = target;
   setup.fixed_points = s.feature_points;
-  setup.start_terr = params.error_threshold;
+  // The search starts at T_err = 4e-3 (error_threshold does not apply with a target size): at the
+  // cap a target implies, nearly every ball of that first cover is at the cap on most scans, so
+  // the gap bound settles on it first and a predicted step down follows. On the shared scans at
+  // 10% and 3% kept: 120 covers in all, against 143 from 1e-3 and 125 from 8e-3.
+  setup.start_terr = kTargetStartTerr;
   setup.cap_factor = cover_params.radius_cap_factor;
   setup.max_cap_factor = params.radius_cap_factor;
   // The gap bound, in neighbourhood radii: target_gap_factor × the cap the target implies.

@@ -147,7 +147,7 @@ struct Parameters
   int threads = 0;
 
   /** \brief If non-zero, search T_err so that the output holds this many points (within 1%, or
-   * the closest size reachable). Overrides error_threshold. */
+   * the closest size reachable). Overrides error_threshold (the search starts at 4e-3). */
   std::size_t target_size = 0;
 };
 

@@ -9,7 +9,8 @@
 // The search, in order:
 //  0. too many at the start, and the gap points alone more than the excess: the gap bound widens
 //     first (as in 2), at the starting T_err, whose cover the counter reuses;
-//  1. at the starting cap and gap bound: bracket T_err from the user's T_err, each step to the T_err
+//  1. at the starting cap and gap bound: bracket T_err from the starting T_err (the filter's is
+//     4e-3), each step to the T_err
 //     the counter predicts from its last cover for the wanted count (TargetCounter::predictCount;
 //     at most twice in a row, and never by more than ×16; a T_err on the way whose cover the
 //     counter keeps is tried first), else by ×4 (down by the step two
