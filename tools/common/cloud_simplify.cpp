@@ -184,8 +184,16 @@ nlohmann::json parametersJson(const Parameters& p)
             j[info.name] = p.*member == info.switch_value;  // the switch is given
           else if constexpr (std::is_same<T, ErrorForm>::value)
             j[info.name] = toString(p.*member);
-          else if (p.max_deviation_of_L > 0.0 && info.name == std::string("max-deviation"))
-            j[info.name] = parameterText(info, p);  // "P%": a fraction of L
+          else if constexpr (std::is_same<T, double>::value)
+          {
+            // A number, or the row's text when that is not one ("0.1%" of L for max-deviation).
+            const std::string text = parameterText(info, p);
+            double number = 0.0;
+            if (parseReal(text, number).empty())
+              j[info.name] = p.*member;
+            else
+              j[info.name] = text;
+          }
           else
             j[info.name] = p.*member;
         },

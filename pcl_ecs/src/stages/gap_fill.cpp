@@ -2,68 +2,20 @@
 
 #include <pcl_ecs/stages/adaptive_tolerance.h>
 
+#include "../detail/point_grid.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <unordered_map>
 
 namespace pcl_ecs
 {
 
-namespace
-{
-/// Output points hashed into cubes of side `gap`: a point within `gap` of q lies in one of the 27
-/// cubes around q's.
-class GapGrid
-{
-public:
-  explicit GapGrid(double gap) : inv_(1.0 / gap), gap2_(gap * gap) {}
-
-  void insert(const Eigen::Vector3d& p)
-  {
-    const Eigen::Vector3i c = cellOf(p);
-    cells_[key(c.x(), c.y(), c.z())].push_back(p);
-  }
-
-  /// True when some inserted point lies within the gap of q.
-  bool near(const Eigen::Vector3d& q) const
-  {
-    const Eigen::Vector3i c = cellOf(q);
-    for (int dx = -1; dx <= 1; ++dx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dz = -1; dz <= 1; ++dz)
-        {
-          const auto it = cells_.find(key(c.x() + dx, c.y() + dy, c.z() + dz));
-          if (it == cells_.end())
-            continue;
-          for (const Eigen::Vector3d& p : it->second)
-            if ((p - q).squaredNorm() <= gap2_)
-              return true;
-        }
-    return false;
-  }
-
-private:
-  Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const
-  {
-    return (p * inv_).array().floor().cast<int>();
-  }
-  static std::uint64_t key(int x, int y, int z)
-  {
-    // 21 bits per axis (the local frame keeps coordinates within ±2^20 cells of any sane gap).
-    auto u = [](int v) { return static_cast<std::uint64_t>(static_cast<std::uint32_t>(v) & 0x1FFFFFu); };
-    return u(x) | (u(y) << 21) | (u(z) << 42);
-  }
-
-  double inv_, gap2_;
-  std::unordered_map<std::uint64_t, std::vector<Eigen::Vector3d>> cells_;
-};
-}  // namespace
 
 namespace
 {
 /// farFrom on a grid holding the outputs.
-std::vector<std::uint8_t> farFromGrid(const GapGrid& grid, const std::vector<Eigen::Vector3d>& points, int threads)
+std::vector<std::uint8_t> farFromGrid(const PointGrid& grid, const std::vector<Eigen::Vector3d>& points, int threads)
 {
   std::vector<std::uint8_t> far(points.size(), 0);
   const auto count = static_cast<std::ptrdiff_t>(points.size());
@@ -79,7 +31,7 @@ std::vector<std::uint8_t> farFrom(const std::vector<Eigen::Vector3d>& outputs,
 {
   if (!(gap > 0.0) || !std::isfinite(gap))
     return std::vector<std::uint8_t>(points.size(), 0);
-  GapGrid grid(gap);
+  PointGrid grid(gap);
   for (const Eigen::Vector3d& p : outputs)
     grid.insert(p);
   return farFromGrid(grid, points, threads);
@@ -91,7 +43,7 @@ std::vector<std::size_t> closeGaps(const std::vector<Eigen::Vector3d>& outputs,
   std::vector<std::size_t> kept;
   if (!(gap > 0.0) || !std::isfinite(gap) || candidates.empty())
     return kept;
-  GapGrid grid(gap);
+  PointGrid grid(gap);
   for (const Eigen::Vector3d& p : outputs)
     grid.insert(p);
   // Against the outputs alone (read-only grid: in parallel), then greedily in order.

@@ -2,10 +2,11 @@
 
 #include <pcl_ecs/stages/gap_fill.h>
 
+#include "../detail/point_grid.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <unordered_map>
 
 #include <Eigen/Eigenvalues>
 #include <nanoflann.hpp>
@@ -116,52 +117,19 @@ std::vector<PointDeviation> measure(const CoverInput& in, const CoverOutput& out
   return d;
 }
 
-/// Points added in one round, hashed into cubes of side `side`, to find one within a distance.
-class AddedGrid
+/// PointDeviation::distance of each.
+std::vector<double> distances(const std::vector<PointDeviation>& d)
 {
-public:
-  explicit AddedGrid(double side) : inv_(1.0 / side) {}
-  void insert(const Eigen::Vector3d& p) { cells_[key(p)].push_back(p); }
-  /// True when an inserted point lies within `r` (<= the side) of q.
-  bool near(const Eigen::Vector3d& q, double r) const
-  {
-    const Eigen::Vector3d c = (q * inv_).array().floor();
-    for (int dx = -1; dx <= 1; ++dx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dz = -1; dz <= 1; ++dz)
-        {
-          const auto it = cells_.find(key(c + Eigen::Vector3d(dx, dy, dz), true));
-          if (it == cells_.end())
-            continue;
-          for (const Eigen::Vector3d& p : it->second)
-            if ((p - q).squaredNorm() <= r * r)
-              return true;
-        }
-    return false;
-  }
-
-private:
-  std::uint64_t key(const Eigen::Vector3d& v, bool is_cell = false) const
-  {
-    const Eigen::Vector3d c = is_cell ? v : Eigen::Vector3d((v * inv_).array().floor());
-    // Clamped before the cast (a cell index beyond ±2^40 only shares its key: distances decide).
-    auto u = [](double x) {
-      return static_cast<std::uint64_t>(static_cast<std::int64_t>(std::max(-1e12, std::min(1e12, x)))) & 0x1FFFFFu;
-    };
-    return u(c.x()) | (u(c.y()) << 21) | (u(c.z()) << 42);
-  }
-  double inv_;
-  std::unordered_map<std::uint64_t, std::vector<Eigen::Vector3d>> cells_;
-};
-}  // namespace
-
-std::vector<double> coverDeviations(const CoverInput& in, const CoverOutput& out, int threads)
-{
-  const std::vector<PointDeviation> d = measure(in, out, threads);
   std::vector<double> distance(d.size());
   for (std::size_t i = 0; i < d.size(); ++i)
     distance[i] = d[i].distance();
   return distance;
+}
+}  // namespace
+
+std::vector<double> coverDeviations(const CoverInput& in, const CoverOutput& out, int threads)
+{
+  return distances(measure(in, out, threads));
 }
 
 std::size_t boundDeviation(const CoverInput& in, const Parameters& params, double error_threshold, double bound,
@@ -182,15 +150,13 @@ std::size_t boundDeviation(const CoverInput& in, const Parameters& params, doubl
       }
     if (over.empty())
     {
-      deviations.resize(d.size());
-      for (std::size_t i = 0; i < d.size(); ++i)
-        deviations[i] = d[i].distance();
+      deviations = distances(d);
       return added;
     }
     // After a few rounds every point over the bound is added at once (each round adds at least
     // the first one, so the rounds end either way).
     const bool skip_near = round < 4 && side > 0.0;
-    AddedGrid grid(side > 0.0 ? side : 1.0);
+    PointGrid grid(side > 0.0 ? side : 1.0);
     for (const std::size_t i : over)
     {
       const Eigen::Vector3d q = in.cloud[i].getVector3fMap().cast<double>();

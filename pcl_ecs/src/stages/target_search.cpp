@@ -49,8 +49,8 @@ private:
   // Balls of the last cover below the radius cap: when they are fewer than the tolerance, a
   // larger T cannot remove enough balls (every other ball is at the cap already).
   std::size_t below_cap_ = 0;
-  double last_terr_ = 0.0, last_count_ = 0.0;  // the last trial
-  std::vector<double> tried_;                   // every T tried, in order
+  double last_count_ = 0.0;    // the last trial's count (its T is tried_.back())
+  std::vector<double> tried_;  // every T tried, in order
   // How much more the count moved than the counter predicted, measured on the last predicted step
   // (log of the change seen over log of the change predicted; 1 until a step measures it), and the
   // step waiting for its count.
@@ -89,7 +89,6 @@ double Search::attempt(double terr)
       sensitivity_ = std::min(4.0, std::max(0.5, seen / predicted));
   }
   pending_.reset();
-  last_terr_ = terr;
   last_count_ = static_cast<double>(balls);
   tried_.push_back(terr);
   ++r_.trials;
@@ -229,7 +228,7 @@ void Search::solve(double lo, double hi, double b_lo, double b_hi)
   // the bracket.
   for (int k = 0; k < 2 && best_distance_ > tol_; ++k)
   {
-    const std::optional<double> guess = predictedTerr(last_terr_, last_count_);
+    const std::optional<double> guess = predictedTerr(tried_.back(), last_count_);
     if (!guess || !(*guess > lo && *guess < hi))
       break;
     const double b = attempt(*guess);

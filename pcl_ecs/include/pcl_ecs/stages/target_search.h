@@ -10,12 +10,12 @@
 //  0. too many at the start, and the gap points alone more than the excess: the gap bound widens
 //     first (as in 2), at the starting T_err, whose cover the counter reuses;
 //  1. at the starting cap and gap bound: bracket T_err from the starting T_err (the filter's is
-//     4e-3), each step to the T_err
-//     the counter predicts from its last cover for the wanted count (TargetCounter::predictCount;
+//     4e-3), each step to the T_err the counter predicts from its last cover for the wanted count
+//     (TargetCounter::predictCount, its change scaled by how far the last predicted step missed;
 //     at most twice in a row, and never by more than ×16; a T_err on the way whose cover the
-//     counter keeps is tried first), else by ×4 (down by the step two
-//     trials' power law gives, when too few); then Brent's method on
-//     log((count − floor) / (wanted − floor)) against log T inside the bracket;
+//     counter keeps is tried first), else by ×4 (down by the step two trials' power law gives,
+//     when too few); then, inside the bracket, up to two predicted steps and Brent's method on
+//     log((count − floor) / (wanted − floor)) against log T;
 //  2. while the size is out of reach (the cap or the gap points, not T_err, set the count): widen
 //     the gap bound (×1.1, several steps at once when two searches show how the gap points fall)
 //     when the gap points alone exceed the excess, else the cap (×1.5, up to the plain cap), and

@@ -1,0 +1,60 @@
+// point_grid.h (private) — points hashed into cubes of a fixed side, to ask whether one lies
+// within a distance (at most the side) of a query: only the 27 cubes around the query's can hold
+// it. The gap bound (stages/gap_fill) and the deviation bound (stages/surface_deviation) use it.
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace pcl_ecs
+{
+
+class PointGrid
+{
+public:
+  explicit PointGrid(double side) : side_(side), inv_(1.0 / side) {}
+
+  void insert(const Eigen::Vector3d& p) { cells_[key(cellOf(p))].push_back(p); }
+
+  /// True when an inserted point lies within `r` (<= the side) of q.
+  bool near(const Eigen::Vector3d& q, double r) const
+  {
+    const double r2 = r * r;
+    const Eigen::Vector3d c = cellOf(q);
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz)
+        {
+          const auto it = cells_.find(key(c + Eigen::Vector3d(dx, dy, dz)));
+          if (it == cells_.end())
+            continue;
+          for (const Eigen::Vector3d& p : it->second)
+            if ((p - q).squaredNorm() <= r2)
+              return true;
+        }
+    return false;
+  }
+  /// The same within the side.
+  bool near(const Eigen::Vector3d& q) const { return near(q, side_); }
+
+private:
+  Eigen::Vector3d cellOf(const Eigen::Vector3d& p) const { return (p * inv_).array().floor(); }
+  /// 21 bits of each cell coordinate (clamped before the cast: cells that share a key only share
+  /// a bucket; the distances decide).
+  static std::uint64_t key(const Eigen::Vector3d& cell)
+  {
+    auto u = [](double x) {
+      return static_cast<std::uint64_t>(static_cast<std::int64_t>(std::max(-1e12, std::min(1e12, x)))) & 0x1FFFFFu;
+    };
+    return u(cell.x()) | (u(cell.y()) << 21) | (u(cell.z()) << 42);
+  }
+
+  double side_, inv_;
+  std::unordered_map<std::uint64_t, std::vector<Eigen::Vector3d>> cells_;
+};
+
+}  // namespace pcl_ecs
