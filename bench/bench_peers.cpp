@@ -1,11 +1,14 @@
-// bench_peers — the issue-4 head-to-head: pcl_ecs against PCL's VoxelGrid, UniformSampling,
-// RandomSample, NormalSpaceSampling and FarthestPointSampling and CGAL's grid, hierarchy and WLOP
-// simplification, at the same output size (each peer's own parameter searched until the size is
-// within 1%), on the shared scans. Every run is timed in a child process of its own (peak memory
-// there); the parent measures the quality of what it wrote with the pcl_ecs_eval metrics.
+// bench_peers — the head-to-head: pcl_ecs against PCL's VoxelGrid, UniformSampling, RandomSample,
+// NormalSpaceSampling and FarthestPointSampling, CGAL's grid, hierarchy and WLOP simplification,
+// and the Python samplers (MeshLab and point-cloud-utils Poisson-disk, bucket farthest-point
+// sampling; bench/py_peers.py, run with --python), at the same output size (each peer's own
+// parameter searched until the size is within 1%), on every shared scan. Every run is timed in a
+// child process of its own (peak memory there); the parent measures the quality of what it wrote
+// with the pcl_ecs_eval metrics.
 //
-//   bench_peers --data ../shared/data --out bench/results/peers.json [--ratios 0.1,0.03]
+//   bench_peers --data ../shared/data --out bench/results/peers.json [--ratios 0.1,0.03,0.01]
 //               [--inputs bunny,fandisk] [--workdir DIR] [--methods pcl_ecs]  (rerun some, merge into OUT)
+//               [--python bench/.venv/bin/python --py-peers bench/py_peers.py]
 #include "bench_common.h"
 
 #include <pcl_ecs/io/cloud_convert.h>
@@ -41,9 +44,15 @@ using K = CGAL::Exact_predicates_inexact_constructions_kernel;
 
 namespace
 {
-const std::vector<std::string> kMethods = {"pcl_ecs",      "voxel_grid", "uniform_sampling", "random_sample",
-                                           "normal_space", "fps",        "cgal_grid",        "cgal_hierarchy",
-                                           "cgal_wlop"};
+const std::vector<std::string> kMethods = {"pcl_ecs",         "voxel_grid",     "uniform_sampling", "random_sample",
+                                           "normal_space",    "fps",            "cgal_grid",        "cgal_hierarchy",
+                                           "cgal_wlop",       "meshlab_poisson", "pcu_poisson",     "fpsample_bucket"};
+
+/// The methods bench/py_peers.py runs (in a Python process).
+bool isPython(const std::string& m)
+{
+  return m == "meshlab_poisson" || m == "pcu_poisson" || m == "fpsample_bucket";
+}
 
 std::string label(const std::string& m)
 {
@@ -56,7 +65,10 @@ std::string label(const std::string& m)
       {"fps", "PCL FarthestPointSampling"},
       {"cgal_grid", "CGAL grid_simplify"},
       {"cgal_hierarchy", "CGAL hierarchy_simplify"},
-      {"cgal_wlop", "CGAL WLOP"}};
+      {"cgal_wlop", "CGAL WLOP"},
+      {"meshlab_poisson", "MeshLab Poisson-disk"},
+      {"pcu_poisson", "point-cloud-utils Poisson-disk"},
+      {"fpsample_bucket", "fpsample bucket FPS"}};
   return names.at(m);
 }
 
@@ -196,17 +208,67 @@ std::vector<std::string> split(const std::string& s)
 
 struct InputSpec
 {
-  std::string name, file, mesh;
+  std::string name, file, mesh, half;
 };
+
+/// Every shared scan, with its reference mesh where there is one, and the half it belongs to: the
+/// defaults are chosen on the tuning half and judged on the checking half (docs/RESULTS.md). Each
+/// half mixes CAD, organic and real scans; the tuning half holds the five scans the defaults were
+/// first chosen on.
+std::vector<InputSpec> sharedInputs(const std::string& data)
+{
+  auto scan = [&](const std::string& name, const std::string& file, bool mesh, const std::string& half) {
+    return InputSpec{name, data + "/" + file, mesh ? data + "/" + name + "_mesh.ply" : "", half};
+  };
+  return {scan("bunny", "bunny.pcd", true, "tuning"),
+          scan("fandisk", "fandisk_scan.pcd", true, "tuning"),
+          scan("bun000", "bun000_rangescan.pcd", false, "tuning"),
+          scan("mug", "table_scene_mug_organized.pcd", false, "tuning"),
+          scan("terrain", "terrain_csite1_utm.pcd", false, "tuning"),
+          scan("pinion", "pinion_scan.pcd", true, "tuning"),
+          scan("turbine", "turbine_scan.pcd", true, "tuning"),
+          scan("spot", "spot_scan.pcd", true, "tuning"),
+          scan("fertility", "fertility_scan.pcd", true, "tuning"),
+          scan("room", "room_scan2.pcd", false, "tuning"),
+          scan("joint", "joint_scan.pcd", true, "checking"),
+          scan("spool", "spool_scan.pcd", true, "checking"),
+          scan("part", "part_scan.pcd", true, "checking"),
+          scan("camelhead", "camelhead_scan.pcd", true, "checking"),
+          scan("elephant", "elephant_scan.pcd", true, "checking"),
+          scan("terrain2", "terrain_csite2_utm.pcd", false, "checking"),
+          scan("kinect", "kinect_capture0001.pcd", false, "checking"),
+          scan("face", "face_model.pcd", false, "checking"),
+          scan("region_rgb", "region_growing_rgb.pcd", false, "checking"),
+          scan("rops", "rops_points.pcd", false, "checking")};
+}
+
+/// Run bench/py_peers.py METHOD on the raw float32 copy of the input; parse the line it prints.
+Measure runPython(const std::string& python, const std::string& script, const std::string& method,
+                  const std::string& raw, std::size_t target, const std::string& out_file)
+{
+  if (python.empty() || script.empty())
+    throw std::runtime_error("no --python and --py-peers given");
+  const std::string cmd = "'" + python + "' '" + script + "' " + method + " '" + raw + "' " + std::to_string(target) +
+                          " '" + out_file + "'";
+  FILE* pipe = ::popen(cmd.c_str(), "r");
+  if (!pipe)
+    throw std::runtime_error("cannot start " + cmd);
+  Measure m;
+  const int got = std::fscanf(pipe, "%zu %lf %lf", &m.size, &m.seconds, &m.peak_extra_mib);
+  const int status = ::pclose(pipe);
+  if (got != 3 || status != 0)
+    throw std::runtime_error("the Python run failed: " + cmd);
+  return m;
+}
 }  // namespace
 
 int main(int argc, char** argv)
 {
   std::string data = "../shared/data", out_path = "peers.json", workdir = "/tmp/pcl_ecs_peers", input, write;
-  std::string child;
+  std::string child, python, py_peers;
   double param = 0, cap = 0, gap = -1;
   std::size_t target = 0;
-  std::vector<double> ratios = {0.10, 0.03};
+  std::vector<double> ratios = {0.10, 0.03, 0.01};
   std::vector<std::string> only, methods = kMethods;
   bool merge = false;
   for (int i = 1; i < argc; ++i)
@@ -237,6 +299,10 @@ int main(int argc, char** argv)
       methods = split(next());
       merge = true;
     }
+    else if (a == "--python")
+      python = next();
+    else if (a == "--py-peers")
+      py_peers = next();
     else if (a == "--input")
       input = next();
     else if (a == "--target")
@@ -275,11 +341,7 @@ int main(int argc, char** argv)
   }
 
   std::filesystem::create_directories(workdir);
-  const std::vector<InputSpec> inputs = {{"bunny", data + "/bunny.pcd", data + "/bunny_mesh.ply"},
-                                         {"fandisk", data + "/fandisk_scan.pcd", data + "/fandisk_mesh.ply"},
-                                         {"bun000", data + "/bun000_rangescan.pcd", ""},
-                                         {"mug", data + "/table_scene_mug_organized.pcd", ""},
-                                         {"terrain", data + "/terrain_csite1_utm.pcd", ""}};
+  const std::vector<InputSpec> inputs = sharedInputs(data);
   nlohmann::json all = nlohmann::json::array();
   nlohmann::json previous = nlohmann::json::array();
   if (merge && std::filesystem::exists(out_path))
@@ -291,6 +353,12 @@ int main(int argc, char** argv)
     const Cloud::Ptr cloud = loadFinite(spec.file);
     const std::string finite_path = workdir + "/" + spec.name + "_input.pcd";
     pcl::io::savePCDFileBinary(finite_path, *cloud);
+    const std::string raw_path = workdir + "/" + spec.name + "_input.f32";  // for the Python samplers
+    {
+      std::ofstream raw(raw_path, std::ios::binary);
+      for (const auto& p : *cloud)
+        raw.write(reinterpret_cast<const char*>(p.data), 3 * sizeof(float));
+    }
     pcl_ecs::eval::TriangleMesh mesh;
     if (!spec.mesh.empty())
     {
@@ -311,10 +379,10 @@ int main(int argc, char** argv)
       const auto n = cloud->size();
       const auto want = static_cast<std::size_t>(std::llround(ratio * static_cast<double>(n)));
       std::printf("\n### %s: %zu points, %.0f%% = %zu\n\n", spec.name.c_str(), n, 100 * ratio, want);
-      std::printf("| method | size | time s | peak MiB | surface RMS | surface p99 | coverage mean | coverage max | Hausdorff | edge mean | edge p90 |\n");
-      std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
-      nlohmann::json entry = {{"input", spec.name}, {"points", n}, {"ratio", ratio}, {"target", want},
-                              {"methods", nlohmann::json::array()}};
+      std::printf("| method | size | time s | peak MiB | surface RMS | tangent RMS | coverage max | mesh mean | edge mean |\n");
+      std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+      nlohmann::json entry = {{"input", spec.name}, {"half", spec.half}, {"has_mesh", !spec.mesh.empty()},
+                              {"points", n}, {"ratio", ratio}, {"target", want}, {"methods", nlohmann::json::array()}};
       for (const auto& m : kMethods)
       {
         if (std::find(methods.begin(), methods.end(), m) == methods.end())
@@ -363,13 +431,14 @@ int main(int argc, char** argv)
           j["max_gap_factor"] = gap_used;
         try
         {
-          meas = runChild({"--input", finite_path, "--target", std::to_string(want)}, m, p, extra.str());
+          meas = isPython(m) ? runPython(python, py_peers, m, raw_path, want, out_file)
+                             : runChild({"--input", finite_path, "--target", std::to_string(want)}, m, p, extra.str());
         }
         catch (const std::exception& e)
         {
           j["error"] = e.what();
           entry["methods"].push_back(j);
-          std::printf("| %s | failed | | | | | | | | | |\n", label(m).c_str());
+          std::printf("| %s | failed | | | | | | | |\n", label(m).c_str());
           continue;
         }
         Cloud simplified;
@@ -383,21 +452,23 @@ int main(int argc, char** argv)
                   {"surface_p99", q.surface_p99},
                   {"coverage_mean", q.coverage_mean},
                   {"coverage_max", q.coverage_max},
+                  {"tangent_rms", q.tangent_rms},
+                  {"tangent_p99", q.tangent_p99},
                   {"hausdorff", q.hausdorff},
                   {"has_mesh", q.has_mesh},
                   {"mesh_mean", q.mesh_mean},
+                  {"mesh_p99", q.mesh_p99},
                   {"mesh_max", q.mesh_max},
                   {"edge_mean", q.edge_mean},
                   {"edge_p90", q.edge_p90}});
         entry["methods"].push_back(j);
         if (q.has_mesh)
-          std::printf("| %s | %zu | %.3f | %.1f | %.2e | %.2e | %.2e | %.2e | %.2e | %.2e | %.2e |\n", label(m).c_str(),
-                      meas.size, meas.seconds, meas.peak_extra_mib, q.surface_rms, q.surface_p99, q.coverage_mean,
-                      q.coverage_max, q.hausdorff, q.edge_mean, q.edge_p90);
+          std::printf("| %s | %zu | %.3f | %.1f | %.2e | %.2e | %.2e | %.2e | %.2e |\n", label(m).c_str(), meas.size,
+                      meas.seconds, meas.peak_extra_mib, q.surface_rms, q.tangent_rms, q.coverage_max, q.mesh_mean,
+                      q.edge_mean);
         else
-          std::printf("| %s | %zu | %.3f | %.1f | %.2e | %.2e | %.2e | %.2e | %.2e | | |\n", label(m).c_str(), meas.size,
-                      meas.seconds, meas.peak_extra_mib, q.surface_rms, q.surface_p99, q.coverage_mean, q.coverage_max,
-                      q.hausdorff);
+          std::printf("| %s | %zu | %.3f | %.1f | %.2e | %.2e | %.2e | | |\n", label(m).c_str(), meas.size, meas.seconds,
+                      meas.peak_extra_mib, q.surface_rms, q.tangent_rms, q.coverage_max);
         std::fflush(stdout);
       }
       all.push_back(entry);

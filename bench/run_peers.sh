@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# The issue-4 evidence in one command: build (Release), run bench_peers on every shared scan at 10%
-# and 3%, a sweep of sizes on the bunny and the fandisk for the plots, then docs/RESULTS.md and
-# its plots (Python, matplotlib pinned in bench/requirements.txt, installed into bench/.venv).
+# The judge in one command: build (Release), install the Python samplers and plotting into
+# bench/.venv (bench/requirements.txt), run bench_peers on every shared scan at 10%, 3% and 1% kept
+# against every peer, a sweep of sizes on the bunny and the fandisk for the plots, then
+# docs/RESULTS.md and its plots (bench/make_results.py).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
@@ -10,13 +11,14 @@ data=${PCL_ECS_SHARED_DATA_DIR:-$root/../shared/data}
 work=${PEERS_WORKDIR:-/tmp/pcl_ecs_peers}
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPCL_ECS_BUILD_TOOLS=ON -DPCL_ECS_BUILD_BENCH=ON > /dev/null
 cmake --build "$build" --target bench_peers > /dev/null
-mkdir -p "$here/results"
-"$build/bench/bench_peers" --data "$data" --out "$here/results/peers_sweep.json" --workdir "$work/sweep" \
-  --inputs bunny,fandisk --ratios 0.2,0.05,0.02,0.01 2>/dev/null > "$here/results/peers_sweep.md"
-"$build/bench/bench_peers" --data "$data" --out "$here/results/peers.json" --workdir "$work" \
-  --ratios 0.1,0.03 2>/dev/null | tee "$here/results/peers.md"
 if [[ ! -x $here/.venv/bin/python ]]; then
   python3 -m venv "$here/.venv"
-  "$here/.venv/bin/pip" install --quiet -r "$here/requirements.txt"
 fi
+"$here/.venv/bin/pip" install --quiet -r "$here/requirements.txt"
+py=(--python "$here/.venv/bin/python" --py-peers "$here/py_peers.py")
+mkdir -p "$here/results"
+"$build/bench/bench_peers" --data "$data" --out "$here/results/peers_sweep.json" --workdir "$work/sweep" "${py[@]}" \
+  --inputs bunny,fandisk --ratios 0.2,0.05,0.02,0.01 2>/dev/null > "$here/results/peers_sweep.md"
+"$build/bench/bench_peers" --data "$data" --out "$here/results/peers.json" --workdir "$work" "${py[@]}" \
+  --ratios 0.1,0.03,0.01 2>/dev/null | tee "$here/results/peers.md"
 "$here/.venv/bin/python" "$here/make_results.py" "$work"

@@ -55,6 +55,28 @@ TEST(QualityMetrics, GridAndEveryOtherPoint)
   EXPECT_NEAR(m.coverage_mean, (2 * h + h * std::sqrt(2.0)) / 4 / L, 0.05 * h / L);
 }
 
+// The grid and a copy of it moved 0.3 h along the plane and d off it: every original point's
+// nearest simplified point is its own copy, offset by exactly d along the normal (the in-plane part
+// does not count), while the coverage sees the whole move.
+TEST(QualityMetrics, TangentOffsetIsTheMoveAlongTheNormalOnly)
+{
+  const int n = 31;
+  const double h = 0.05, d = 0.004;
+  auto full = gridPlane(n, h);
+  Cloud moved;
+  for (const auto& p : *full)
+    moved.push_back(toPoint({p.x + 0.3 * h, p.y, p.z + d}));
+  QualityMetrics m;
+  ASSERT_TRUE(pcl_ecs::eval::evaluateQuality(*full, moved, nullptr, m));
+  const double L = m.bbox_diagonal;
+  EXPECT_NEAR(m.tangent_rms, d / L, 1e-6 / L);
+  EXPECT_NEAR(m.tangent_p99, d / L, 1e-6 / L);
+  EXPECT_NEAR(m.coverage_max, std::hypot(0.3 * h, d) / L, 1e-6 / L);
+  QualityMetrics same;
+  ASSERT_TRUE(pcl_ecs::eval::evaluateQuality(*full, *full, nullptr, same));
+  EXPECT_EQ(same.tangent_rms, 0.0);
+}
+
 namespace
 {
 pcl_ecs::eval::TriangleMesh unitCube()
@@ -97,6 +119,7 @@ TEST(QualityMetrics, DistanceToTheMeshAndFromItsEdges)
   EXPECT_TRUE(m.has_mesh);
   EXPECT_NEAR(m.mesh_max, 0.01 / L, 1e-6);
   EXPECT_NEAR(m.mesh_mean, 0.01 / L / 9.0, 1e-6);
+  EXPECT_NEAR(m.mesh_p99, 0.01 / L, 1e-6);  // 9 points: the 99th percentile is the largest
   EXPECT_EQ(m.sharp_edge_samples, 120u);
   // Edge samples at 0, 0.1, ..., 0.9 along each edge; the nearest corner is at most 0.5 away.
   EXPECT_NEAR(m.edge_p90, 0.4 / L, 1e-6);

@@ -26,9 +26,12 @@ Every distance is a fraction of L, the diagonal of ORIGINAL's bounding box:
                      simplified points (RMS and 99th percentile)
   coverage           for each original point, the distance to the nearest simplified point
                      (mean and max): holes show here
+  tangent offset     for each original point, how far its nearest simplified point lies off the
+                     surface there: the offset along the point's normal (PCA of its 16 nearest
+                     original points), RMS and 99th percentile
   hausdorff          symmetric Hausdorff distance between the two clouds
   with --mesh (PLY, OBJ, VTK, STL):
-  mesh distance      for each simplified point, the distance to the mesh (mean, max)
+  mesh distance      for each simplified point, the distance to the mesh (mean, p99, max)
   sharp edges        for points sampled every 5e-4 L along the mesh edges whose faces meet at more
                      than 40 degrees, the distance to the nearest simplified point (mean, p90)
 
@@ -142,11 +145,14 @@ int main(int argc, char** argv)
                       {"surface_p99", m.surface_p99},
                       {"coverage_mean", m.coverage_mean},
                       {"coverage_max", m.coverage_max},
+                      {"tangent_rms", m.tangent_rms},
+                      {"tangent_p99", m.tangent_p99},
                       {"hausdorff", m.hausdorff}};
   if (m.has_mesh)
   {
     j["mesh"] = mesh_path;
     j["mesh_mean"] = m.mesh_mean;
+    j["mesh_p99"] = m.mesh_p99;
     j["mesh_max"] = m.mesh_max;
     j["sharp_edge_samples"] = m.sharp_edge_samples;
     j["edge_mean"] = m.edge_mean;

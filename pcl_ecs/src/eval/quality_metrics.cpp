@@ -36,6 +36,14 @@ double mean(const std::vector<double>& v)
   return v.empty() ? 0.0 : s / static_cast<double>(v.size());
 }
 
+double rms(const std::vector<double>& v)
+{
+  double s = 0.0;
+  for (double x : v)
+    s += x * x;
+  return v.empty() ? 0.0 : std::sqrt(s / static_cast<double>(v.size()));
+}
+
 /// A search over `cloud` in a frame centred at `origin` (float precision for large coordinates).
 struct Index
 {
@@ -61,6 +69,31 @@ struct Index
   pcl::PointCloud<pcl::PointXYZ>::Ptr local;
   NanoflannSearch search;
 };
+
+/// |n · (q − p)|: the offset of `q` (local frame of `orig`) from the original point `p` along p's
+/// normal, the least-variance direction of p's `k` nearest original points. Below 3 neighbours
+/// there is no normal and the whole distance counts.
+double tangentOffset(const Index& orig, const Eigen::Vector3d& p, const Eigen::Vector3d& q, int k)
+{
+  const Eigen::Vector3d pl = orig.toLocal(p).getVector3fMap().cast<double>();
+  pcl::Indices idx;
+  std::vector<float> d2;
+  orig.search.nearestKSearch(orig.toLocal(p), k, idx, d2);
+  if (idx.size() < 3)
+    return (q - pl).norm();
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (const int j : idx)
+    c += (*orig.local)[static_cast<std::size_t>(j)].getVector3fMap().cast<double>();
+  c /= static_cast<double>(idx.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const int j : idx)
+  {
+    const Eigen::Vector3d d = (*orig.local)[static_cast<std::size_t>(j)].getVector3fMap().cast<double>() - c;
+    cov += d * d.transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  return std::abs((q - pl).dot(es.eigenvectors().col(0)));
+}
 }  // namespace
 
 std::vector<Eigen::Vector3d> sampleSharpEdges(const TriangleMesh& mesh, double angle_deg, double spacing)
@@ -117,9 +150,10 @@ bool evaluateQuality(const pcl::PointCloud<pcl::PointXYZ>& original,
   out.simplified_points = simplified.size();
   const Index simp(simplified, origin), orig(original, origin);
 
-  // Surface deviation and coverage, per original point.
-  std::vector<double> deviation(original.size()), cover(original.size());
+  // Surface deviation, coverage and tangent offset, per original point.
+  std::vector<double> deviation(original.size()), cover(original.size()), tangent(original.size());
   const int k = static_cast<int>(std::min<std::size_t>(8, simplified.size()));
+  const int k_normal = static_cast<int>(std::min<std::size_t>(16, original.size()));
 #pragma omp parallel for schedule(dynamic, 1024)
   for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(original.size()); ++i)
   {
@@ -128,6 +162,8 @@ bool evaluateQuality(const pcl::PointCloud<pcl::PointXYZ>& original,
     std::vector<float> d2;
     simp.search.nearestKSearch(simp.toLocal(p), k, idx, d2);
     cover[static_cast<std::size_t>(i)] = std::sqrt(static_cast<double>(d2[0])) / L;
+    const Eigen::Vector3d nearest_out = (*simp.local)[static_cast<std::size_t>(idx[0])].getVector3fMap().cast<double>();
+    tangent[static_cast<std::size_t>(i)] = tangentOffset(orig, p, nearest_out, k_normal) / L;
     Eigen::Vector3d c = Eigen::Vector3d::Zero();
     for (const int j : idx)
       c += (*simp.local)[static_cast<std::size_t>(j)].getVector3fMap().cast<double>();
@@ -147,13 +183,12 @@ bool evaluateQuality(const pcl::PointCloud<pcl::PointXYZ>& original,
     }
     deviation[static_cast<std::size_t>(i)] = dev / L;
   }
-  double sq = 0.0;
-  for (double d : deviation)
-    sq += d * d;
-  out.surface_rms = std::sqrt(sq / static_cast<double>(deviation.size()));
+  out.surface_rms = rms(deviation);
   out.surface_p99 = percentile(deviation, 0.99);
   out.coverage_mean = mean(cover);
   out.coverage_max = *std::max_element(cover.begin(), cover.end());
+  out.tangent_rms = rms(tangent);
+  out.tangent_p99 = percentile(tangent, 0.99);
   double back = 0.0;
   for (const auto& s : simplified)
     back = std::max(back, orig.nearest(s.getVector3fMap().cast<double>()) / L);
@@ -184,6 +219,7 @@ bool evaluateQuality(const pcl::PointCloud<pcl::PointXYZ>& original,
     }
     out.has_mesh = true;
     out.mesh_mean = mean(to_mesh);
+    out.mesh_p99 = percentile(to_mesh, 0.99);
     out.mesh_max = *std::max_element(to_mesh.begin(), to_mesh.end());
     const auto samples = sampleSharpEdges(*mesh, sharp_angle_deg, edge_spacing * L);
     std::vector<double> edge;

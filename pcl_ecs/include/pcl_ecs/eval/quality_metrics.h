@@ -30,9 +30,12 @@ struct QualityMetrics
   double surface_p99 = 0;
   double coverage_mean = 0;     ///< per original point: distance to the nearest simplified point
   double coverage_max = 0;
+  double tangent_rms = 0;       ///< per original point: offset of its nearest simplified point along the original
+  double tangent_p99 = 0;       ///<   point's normal (PCA of its 16 nearest original points)
   double hausdorff = 0;         ///< symmetric Hausdorff distance between the two clouds
   bool has_mesh = false;
   double mesh_mean = 0;         ///< per simplified point: distance to the reference mesh
+  double mesh_p99 = 0;
   double mesh_max = 0;
   std::size_t sharp_edge_samples = 0;
   double edge_mean = 0;         ///< per sample on a sharp mesh edge: distance to the nearest simplified point
