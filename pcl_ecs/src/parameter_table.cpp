@@ -52,6 +52,11 @@ std::vector<ParameterInfo> makeTable()
        "a ball whose points scatter about their planes by more than F × r (RMS) keeps its centre, an input "
        "point (2 = never)",
        true},
+      {"no-rep-fit", "representative_fit", "", &P::representative_fit, "", false, 0, 0, false, false, false,
+       "true or false",
+       "keep the optimised point's height instead of moving a smooth ball's representative onto the quadratic "
+       "fitted to its points (the paper's method)",
+       true},
       {"max-gap", "max_gap_factor", "", &P::max_gap_factor, "G", false, 0, 100, true, false, true,
        "0 (off) or in (0, 100]",
        "no input point farther than G × the radius cap from the output: points left farther become output "

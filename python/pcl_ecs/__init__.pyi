@@ -23,6 +23,7 @@ class Parameters:
     max_representative_offset: float
     representative_cutoff: float
     max_roughness: float
+    representative_fit: bool
     max_gap_factor: float
     target_gap_factor: float
     max_deviation: Union[float, str]
@@ -63,6 +64,7 @@ def simplify(
     max_representative_offset: float = 0.5,
     representative_cutoff: float = 0.05,
     max_roughness: float = 0.2,
+    representative_fit: bool = True,
     max_gap_factor: float = 1.0,
     target_gap_factor: float = 0.6,
     max_deviation: Union[float, str] = 0.0,

@@ -401,6 +401,7 @@ NB_MODULE(_core, m)
       .def_rw("max_representative_offset", &Parameters::max_representative_offset)
       .def_rw("representative_cutoff", &Parameters::representative_cutoff)
       .def_rw("max_roughness", &Parameters::max_roughness)
+      .def_rw("representative_fit", &Parameters::representative_fit)
       .def_rw("max_gap_factor", &Parameters::max_gap_factor)
       .def_rw("target_gap_factor", &Parameters::target_gap_factor)
       .def_prop_rw(

@@ -86,6 +86,10 @@ public:
    * its radius keeps its centre (Parameters::max_roughness). */
   void setMaxRoughness(double fraction) { params_.max_roughness = fraction; }
   double getMaxRoughness() const { return params_.max_roughness; }
+  /** \brief Move a smooth ball's representative onto the quadratic fitted to its points (default
+   * on; off is the paper's method; Parameters::representative_fit). */
+  void setRepresentativeFit(bool on) { params_.representative_fit = on; }
+  bool getRepresentativeFit() const { return params_.representative_fit; }
   /** \brief No input point farther than factor × the radius cap from the output; 0 = off (see
    * Parameters::max_gap_factor; target-size mode: setTargetGapFactor). */
   void setMaxGapFactor(double factor) { params_.max_gap_factor = factor; }

@@ -104,6 +104,12 @@ struct Parameters
    * hundredths of r, balls on vegetation by more than 0.2 (docs/RESULTS.md). */
   double max_roughness = 0.2;
 
+  /** \brief Place the representative of a smooth ball (its quadric has one dominant direction) on
+   * the weighted least-squares quadratic through its points, along the centre's normal
+   * (stages/representative_fit.h): on curved and noisy scans the output points then lie on the
+   * surface, not off it by the planes' bias or the noise. Default on; off is the paper's method. */
+  bool representative_fit = true;
+
   /** \brief The gap bound (stages/gap_fill.h), in the T_err mode and out of core: after the
    * cover, every point farther than this many times the radius cap from all output points becomes
    * an output point of its own, greedily, so that no input point is farther than

@@ -4,6 +4,7 @@
 #include <pcl_ecs/stages/hull_coverage.h>
 #include <pcl_ecs/stages/kernel.h>
 #include <pcl_ecs/stages/radius_solver.h>
+#include <pcl_ecs/stages/representative_fit.h>
 #include <pcl_ecs/stages/seeded_order.h>
 
 #include "../detail/radix_sort.h"
@@ -233,7 +234,7 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
   ball.roughness = ballRoughness(sol);
   const std::optional<Eigen::Vector3d> offset = representativeOffset(sol, ball.roughness, params);
   ball.used_centre = !offset;
-  const Eigen::Vector3d v_offset = offset ? *offset : Eigen::Vector3d::Zero();
+  Eigen::Vector3d v_offset = offset ? *offset : Eigen::Vector3d::Zero();
   ball.representative = centre + v_offset;
 
   // Members: the non-feature points within r (c among them, at distance 0).
@@ -262,6 +263,15 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
     w.distances.push_back(0.0);
     w.offsets.push_back(Eigen::Vector3d::Zero());
   }
+
+  // The representative on the surface the members describe (representative_fit.h), in smooth balls.
+  if (params.representative_fit && offset && smoothQuadric(sol.quadric, params.representative_cutoff))
+    if (const auto fitted = fitRepresentativeHeight(w.offsets, w.distances, sol.radius, in.normals[cs].cast<double>(),
+                                                    v_offset))
+    {
+      v_offset = *fitted;
+      ball.representative = centre + v_offset;
+    }
 
   // Attributes: from the member nearest to v; normal averaged over the ball with c's sign.
   const BallAttributes attributes =

@@ -1,0 +1,41 @@
+// representative_fit.h: the representative placed on the surface its ball's points describe.
+//
+// The quadric's minimiser (eq. 13) averages the tangent planes of the ball's points. On a curved
+// patch those planes meet off the surface (outside a convex one, by about κr²/4), and on a noisy
+// scan the minimiser keeps part of the noise. Where the ball is smooth (its quadric has one
+// dominant direction: no sharp edge inside), the representative's height along the centre's
+// normal is replaced by the height of the weighted least-squares quadratic through the ball's
+// points, h(u, v) = k0 + k1 u + k2 v + k3 u² + k4 uv + k5 v² in the centre's tangent frame, with
+// the weights G_r(|p_j − c|) (the kernel with support r, as the ball's normal average uses). Its
+// tangent position stays the minimiser's. Balls with a sharp edge inside keep the minimiser, which
+// lies on the edge.
+#pragma once
+
+#include <pcl_ecs/stages/quadric.h>
+
+#include <Eigen/Core>
+
+#include <optional>
+#include <vector>
+
+namespace pcl_ecs
+{
+
+/** \brief Fewest members the quadratic is fitted to (twice its six coefficients). */
+constexpr std::size_t kRepresentativeFitMinPoints = 12;
+
+/** \brief True when the quadric has one dominant direction: its second eigenvalue is below
+ * `cutoff` × its largest (the cutoff of the representative's minimiser). An empty quadric is not
+ * smooth. */
+bool smoothQuadric(const Quadric& q, double cutoff);
+
+/** \brief The offset x (from the centre) moved along `normal` (unit, the centre's) onto the
+ * quadratic height field fitted to `offsets` (the members, offsets from the centre) with weights
+ * G_radius(distances[j]) for a ball of radius `radius`. Nothing (keep x) when there are fewer than
+ * kRepresentativeFitMinPoints members, when the fit is rank-deficient (members on a line, say) or
+ * when the fitted height is a radius or more from the centre's plane. */
+std::optional<Eigen::Vector3d> fitRepresentativeHeight(const std::vector<Eigen::Vector3d>& offsets,
+                                                       const std::vector<double>& distances, double radius,
+                                                       const Eigen::Vector3d& normal, const Eigen::Vector3d& x);
+
+}  // namespace pcl_ecs

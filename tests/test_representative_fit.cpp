@@ -1,0 +1,160 @@
+// The representative on the fitted surface (stages/representative_fit.h), on shapes with exact
+// answers, and through the cover on a noisy sphere.
+#include <pcl_ecs/feature_aware_cover_simplify.h>
+#include <pcl_ecs/stages/representative_fit.h>
+#include <pcl_ecs/stages/tangent_frame.h>
+
+#include "synthetic_shapes.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <random>
+
+using namespace pcl_ecs_test;
+
+namespace
+{
+/// Members on h(u, v) in the frame of `n` (offsets from the centre), on a jittered grid within r.
+struct Ball
+{
+  std::vector<Eigen::Vector3d> offsets;
+  std::vector<double> distances;
+};
+
+template <typename Height>
+Ball ballOn(const Eigen::Vector3d& n, double r, Height h, int per_side = 9)
+{
+  Eigen::Vector3d t1, t2;
+  pcl_ecs::tangentFrame(n, t1, t2);
+  Ball b;
+  for (int i = 0; i < per_side; ++i)
+    for (int j = 0; j < per_side; ++j)
+    {
+      const double u = r * (-0.7 + 1.4 * i / (per_side - 1)) + 0.01 * r * ((i * 7 + j * 3) % 5);
+      const double v = r * (-0.7 + 1.4 * j / (per_side - 1)) + 0.01 * r * ((i * 5 + j * 11) % 7);
+      const Eigen::Vector3d o = u * t1 + v * t2 + h(u, v) * n;
+      if (o.norm() > r)
+        continue;
+      b.offsets.push_back(o);
+      b.distances.push_back(o.norm());
+    }
+  return b;
+}
+}  // namespace
+
+// Points exactly on a quadratic height field: the fit reproduces it, so the representative lands
+// on it at its own tangent position, whatever height it came with.
+TEST(RepresentativeFit, LandsExactlyOnAQuadraticSurface)
+{
+  const Eigen::Vector3d n = Eigen::Vector3d(0.3, -0.4, 0.8).normalized();
+  auto h = [](double u, double v) { return 0.02 + 0.1 * u - 0.05 * v + 0.3 * u * u - 0.2 * u * v + 0.5 * v * v; };
+  const double r = 0.5;
+  const Ball b = ballOn(n, r, h);
+  ASSERT_GE(b.offsets.size(), pcl_ecs::kRepresentativeFitMinPoints);
+  Eigen::Vector3d t1, t2;
+  pcl_ecs::tangentFrame(n, t1, t2);
+  for (const auto& [u, v, off] : {std::tuple{0.0, 0.0, 0.05}, std::tuple{0.1, -0.2, -0.03}, std::tuple{-0.25, 0.15, 0.0}})
+  {
+    const Eigen::Vector3d x = u * t1 + v * t2 + off * n;
+    const auto fitted = pcl_ecs::fitRepresentativeHeight(b.offsets, b.distances, r, n, x);
+    ASSERT_TRUE(fitted.has_value());
+    EXPECT_NEAR(t1.dot(*fitted), u, 1e-12);
+    EXPECT_NEAR(t2.dot(*fitted), v, 1e-12);
+    EXPECT_NEAR(n.dot(*fitted), h(u, v), 1e-9);
+  }
+}
+
+// A plane whose points sit ±e off it in pairs at the same tangent position: the noise cancels and
+// the representative lands on the plane, not on the noisy height it came with.
+TEST(RepresentativeFit, AveragesSymmetricNoiseAway)
+{
+  const Eigen::Vector3d n = Eigen::Vector3d::UnitZ();
+  const double r = 1.0, e = 0.01;
+  Ball up = ballOn(n, r, [&](double, double) { return e; });
+  const Ball down = ballOn(n, r, [&](double, double) { return -e; });
+  up.offsets.insert(up.offsets.end(), down.offsets.begin(), down.offsets.end());
+  up.distances.insert(up.distances.end(), down.distances.begin(), down.distances.end());
+  const auto fitted = pcl_ecs::fitRepresentativeHeight(up.offsets, up.distances, r, n, {0.1, 0.2, 0.7 * e});
+  ASSERT_TRUE(fitted.has_value());
+  EXPECT_NEAR(fitted->z(), 0.0, 1e-12);
+  EXPECT_NEAR(fitted->x(), 0.1, 1e-15);
+  EXPECT_NEAR(fitted->y(), 0.2, 1e-15);
+}
+
+TEST(RepresentativeFit, RefusesTooFewOrDegenerateMembersAndFarHeights)
+{
+  const Eigen::Vector3d n = Eigen::Vector3d::UnitZ();
+  const Ball b = ballOn(n, 1.0, [](double, double) { return 0.0; });
+  // Too few members.
+  const std::vector<Eigen::Vector3d> few(b.offsets.begin(), b.offsets.begin() + 11);
+  const std::vector<double> few_d(b.distances.begin(), b.distances.begin() + 11);
+  EXPECT_FALSE(pcl_ecs::fitRepresentativeHeight(few, few_d, 1.0, n, Eigen::Vector3d::Zero()).has_value());
+  // Members on a line: u² and u are not told apart from v-terms.
+  std::vector<Eigen::Vector3d> line;
+  std::vector<double> line_d;
+  for (int i = 0; i < 20; ++i)
+  {
+    line.emplace_back(-0.9 + 0.09 * i, 0.0, 0.0);
+    line_d.push_back(line.back().norm());
+  }
+  EXPECT_FALSE(pcl_ecs::fitRepresentativeHeight(line, line_d, 1.0, n, Eigen::Vector3d::Zero()).has_value());
+  // A fitted height a radius or more off the centre's plane is not believed.
+  const Ball steep = ballOn(n, 1.0, [](double u, double) { return 3.0 * u * u; });
+  EXPECT_FALSE(pcl_ecs::fitRepresentativeHeight(steep.offsets, steep.distances, 0.2, n, {0.9, 0.0, 0.0}).has_value());
+}
+
+TEST(RepresentativeFit, ASmoothQuadricHasOneDominantDirection)
+{
+  pcl_ecs::Quadric flat, edge, empty;
+  for (int j = 0; j < 10; ++j)
+  {
+    flat.add(1.0, Eigen::Vector3d::UnitZ(), {0.1 * j, 0.0, 0.0});
+    edge.add(1.0, j % 2 ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitX(), {0.1 * j, 0.0, 0.0});
+  }
+  EXPECT_TRUE(pcl_ecs::smoothQuadric(flat, 0.05));
+  EXPECT_FALSE(pcl_ecs::smoothQuadric(edge, 0.05));  // two equal directions: a sharp edge inside
+  EXPECT_FALSE(pcl_ecs::smoothQuadric(empty, 0.05));
+}
+
+// Through the whole method on a noisy sphere: with the fit the representatives lie closer to the
+// sphere than the noisy input points do, and closer than without it (where the planes of a convex
+// patch meet outside it).
+TEST(RepresentativeFit, RepresentativesOfANoisySphereLieOnIt)
+{
+  const double R = 1.0, sigma = 0.004;
+  auto cloud = fibonacciSphere(40000, R);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, sigma);
+  for (auto& p : *cloud)
+  {
+    const Eigen::Vector3f d = p.getVector3fMap().normalized();
+    p.getVector3fMap() += static_cast<float>(noise(rng)) * d;
+  }
+  auto meanOff = [&](bool fit, std::size_t& balls) {
+    pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> f;
+    f.setInputCloud(cloud);
+    f.setErrorThreshold(2e-3);
+    f.setRepresentativeFit(fit);
+    Cloud out;
+    f.filter(out);
+    double sum = 0.0;
+    balls = 0;
+    for (const auto& b : f.getResult().balls)
+      if (!b.used_centre && b.radius > 0.0)
+      {
+        sum += std::abs(b.representative.norm() - R);
+        ++balls;
+      }
+    return sum / static_cast<double>(balls);
+  };
+  std::size_t with_n = 0, without_n = 0;
+  const double with = meanOff(true, with_n), without = meanOff(false, without_n);
+  ASSERT_GT(with_n, 200u);
+  ASSERT_GT(without_n, 200u);
+  const double input = sigma * std::sqrt(2.0 / M_PI);  // E|N(0, σ)|
+  std::printf("mean distance to the sphere: input %.2e, with the fit %.2e (%zu balls), without %.2e (%zu)\n", input,
+              with, with_n, without, without_n);
+  EXPECT_LT(with, 0.5 * input);
+  EXPECT_LT(with, 0.7 * without);
+}
