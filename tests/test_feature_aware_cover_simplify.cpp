@@ -585,6 +585,7 @@ TEST(Filter, TargetSearchResultIsThePlainRunAtItsSettings)
     plain.setErrorThreshold(s.error_threshold);
     plain.setRadiusCapFactor(s.radius_cap_factor);
     plain.setMaxGapFactor(s.max_gap / (s.radius_cap_factor * s.neighborhood_radius));
+    plain.setFeatureSpacing(s.feature_spacing);
     const Cloud ref = run(cloud, plain);
     ASSERT_EQ(ref.size(), out.size());
     std::size_t same = 0;

@@ -581,11 +581,13 @@ int runTool(int argc, char** argv)
   if (!o.quiet)
   {
     const Summary& s = r.result.summary;
-    std::printf("%s: %zu -> %zu points (%.2f%%)%s: %zu features, %zu balls; T_err %.3g, max error "
+    const std::string thinned =
+        s.thinned_features > 0 ? " (" + std::to_string(s.thinned_features) + " more thinned along the edges)" : "";
+    std::printf("%s: %zu -> %zu points (%.2f%%)%s: %zu features%s, %zu balls; T_err %.3g, max error "
                 "%.3g L%s; %.2f s\n",
                 o.output.c_str(), s.finite_points, s.output_points,
                 100.0 * static_cast<double>(s.output_points) / static_cast<double>(std::max<std::size_t>(1, s.finite_points)),
-                mergedNote(s.merged_points).c_str(), s.feature_points, s.balls, s.error_threshold, s.max_error,
+                mergedNote(s.merged_points).c_str(), s.feature_points, thinned.c_str(), s.balls, s.error_threshold, s.max_error,
                 deviationNote(s).c_str(), s.timings.total);
     if (mesh)
       std::printf("%s: %s\n", o.mesh.c_str(), meshSummaryLine(*mesh).c_str());

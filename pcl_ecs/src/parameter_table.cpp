@@ -64,6 +64,11 @@ std::vector<ParameterInfo> makeTable()
        true},
       {"target-gap", "target_gap_factor", "", &P::target_gap_factor, "G", false, 0, 100, true, false, true,
        "0 (off) or in (0, 100]", "the same with a target size, × the cap the target implies", true},
+      {"feature-spacing", "feature_spacing", "", &P::feature_spacing, "F", false, 0, 1000, true, false, true,
+       "0 (off) or in (0, 1000]",
+       "feature points thinned along the edges to one per F mean neighbourhood radii; 0 = keep them all (the "
+       "paper's method); a target size sets it itself",
+       true},
       {"max-deviation", "max_deviation", "", &P::max_deviation, "D", false, 0, kInf, true, false, true,
        "0 (off), > 0 (input units) or a percentage of L in (0%, 100%]",
        "every input point ends within D of the output's surface (the plane of its 8 nearest output points, "

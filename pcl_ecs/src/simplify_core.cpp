@@ -4,6 +4,7 @@
 #include <pcl_ecs/stages/cover_size_model.h>
 #include <pcl_ecs/stages/density_weights.h>
 #include <pcl_ecs/stages/feature_measure.h>
+#include <pcl_ecs/stages/feature_thinning.h>
 #include <pcl_ecs/stages/gap_fill.h>
 #include <pcl_ecs/stages/global_stats.h>
 #include <pcl_ecs/stages/local_density.h>
@@ -244,10 +245,35 @@ void computeDensityAndCurvature(const LocalCloud& cloud, const pcl::search::Sear
   s.mean_abs_curvature = stats.meanAbsCurvature();
 }
 
-/// The cover at the user's T_err, then the gap bound.
-void coverAtThreshold(const CoverInput& in, const Parameters& params, CoreOutput& out)
+/// Parameters::feature_spacing: the feature points thinned to one per `spacing` neighbourhood
+/// radii (none when 0); the summary counts them.
+void thinFeaturePoints(const LocalCloud& cloud, double spacing, CoreOutput& out)
 {
   Summary& s = out.summary;
+  if (!(spacing > 0.0))
+    return;
+  const std::size_t all = s.feature_points + s.thinned_features;
+  s.feature_points = thinFeatures(cloud, out.is_feature, out.measure, spacing * s.neighborhood_radius,
+                                  out.feature_kept_by);
+  s.thinned_features = all - s.feature_points;
+  s.feature_spacing = spacing;
+}
+
+/// The cover's input with the feature points thinFeaturePoints kept as the only feature outputs.
+CoverInput keptFeatures(const CoverInput& all_features, const CoreOutput& out)
+{
+  CoverInput in = all_features;
+  if (!out.feature_kept_by.empty())
+    in.feature_kept_by = &out.feature_kept_by;
+  return in;
+}
+
+/// The cover at the user's T_err, then the gap bound.
+void coverAtThreshold(const CoverInput& all_features, const Parameters& params, CoreOutput& out)
+{
+  Summary& s = out.summary;
+  thinFeaturePoints(all_features.cloud, params.feature_spacing, out);
+  const CoverInput in = keptFeatures(all_features, out);
   s.error_threshold = params.error_threshold;
   s.radius_cap_factor = params.radius_cap_factor;
   s.max_gap = params.max_gap_factor * params.radius_cap_factor * s.neighborhood_radius;
@@ -258,17 +284,33 @@ void coverAtThreshold(const CoverInput& in, const Parameters& params, CoreOutput
 
 constexpr double kTargetStartTerr = 4e-3;
 
+/// With a target size, feature points are thinned to one per this many times the spacing the
+/// target implies (Parameters::feature_spacing).
+/// 0.5 against 1 and none on the tuning half at 10%, 3% and 1% kept (docs/RESULTS.md).
+constexpr double kTargetFeatureSpacing = 0.5;
+
 /// The cover whose size is closest to params.target_size (stages/target_search.h).
-void coverToTargetSize(const CoverInput& in, const Parameters& params, const Report& report, CoreOutput& out)
+void coverToTargetSize(const CoverInput& all_features, const Parameters& params, const Report& report, CoreOutput& out)
 {
   Summary& s = out.summary;
   const double target = static_cast<double>(params.target_size);
+  const double nonfeature = static_cast<double>(all_features.cloud.size() - s.feature_points);
+  // Feature points one per kTargetFeatureSpacing × the spacing the whole target implies (in
+  // neighbourhood radii), wider while they alone would take more than half the target.
+  double spacing = kTargetFeatureSpacing * std::sqrt(static_cast<double>(all_features.cloud.size()) /
+                                                     (static_cast<double>(params.k_neighbors) * target));
+  thinFeaturePoints(all_features.cloud, spacing, out);
+  for (int widen = 0; widen < 16 && static_cast<double>(s.feature_points) > 0.5 * target; ++widen)
+  {
+    spacing *= 1.5;
+    thinFeaturePoints(all_features.cloud, spacing, out);
+  }
+  const CoverInput in = keptFeatures(all_features, out);
   const double balls_wanted = target - static_cast<double>(s.feature_points);
   // The radius cap follows the target (Parameters::target_radius_cap).
   Parameters cover_params = params;
   if (params.target_radius_cap > 0.0 && balls_wanted >= 1.0)
   {
-    const double nonfeature = static_cast<double>(in.cloud.size() - s.feature_points);
     const double implied = std::sqrt(nonfeature / (static_cast<double>(params.k_neighbors) * balls_wanted));
     cover_params.radius_cap_factor = std::min(1000.0, std::max(1e-3, params.target_radius_cap * implied));
   }
@@ -281,7 +323,9 @@ void coverToTargetSize(const CoverInput& in, const Parameters& params, const Rep
   // 10% and 3% kept: 120 covers in all, against 143 from 1e-3 and 125 from 8e-3.
   setup.start_terr = kTargetStartTerr;
   setup.cap_factor = cover_params.radius_cap_factor;
-  setup.max_cap_factor = params.radius_cap_factor;
+  // The search may widen the cap past the plain radius cap when the target asks for balls larger
+  // than it (1% of a scan, say): up to 4 × the cap the target implies.
+  setup.max_cap_factor = std::max(params.radius_cap_factor, 4.0 * cover_params.radius_cap_factor);
   // The gap bound, in neighbourhood radii: target_gap_factor × the cap the target implies.
   setup.gap_ratio = params.target_radius_cap > 0.0 ? params.target_gap_factor : params.max_gap_factor;
   CoverCounter counter(in, cover_params, out.cover,

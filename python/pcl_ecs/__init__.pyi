@@ -24,6 +24,7 @@ class Parameters:
     representative_cutoff: float
     max_roughness: float
     representative_fit: bool
+    feature_spacing: float
     max_gap_factor: float
     target_gap_factor: float
     max_deviation: Union[float, str]
@@ -65,6 +66,7 @@ def simplify(
     representative_cutoff: float = 0.05,
     max_roughness: float = 0.2,
     representative_fit: bool = True,
+    feature_spacing: float = 0.0,
     max_gap_factor: float = 1.0,
     target_gap_factor: float = 0.6,
     max_deviation: Union[float, str] = 0.0,

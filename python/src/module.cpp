@@ -364,6 +364,7 @@ nb::dict streamSummary(const pcl_ecs::stream::StreamSummary& s)
   counts["finite_points"] = s.finite_points;
   counts["merged_points"] = s.merged_points;
   counts["feature_points"] = s.feature_points;
+  counts["thinned_features"] = s.thinned_features;
   counts["balls"] = s.balls;
   counts["gap_points"] = s.gap_points;
   counts["output_points"] = s.output_points;
@@ -402,6 +403,7 @@ NB_MODULE(_core, m)
       .def_rw("representative_cutoff", &Parameters::representative_cutoff)
       .def_rw("max_roughness", &Parameters::max_roughness)
       .def_rw("representative_fit", &Parameters::representative_fit)
+      .def_rw("feature_spacing", &Parameters::feature_spacing)
       .def_rw("max_gap_factor", &Parameters::max_gap_factor)
       .def_rw("target_gap_factor", &Parameters::target_gap_factor)
       .def_prop_rw(

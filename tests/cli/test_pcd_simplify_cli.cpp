@@ -350,6 +350,9 @@ TEST_F(Cli, ContradictoryFlagsAreUsageErrors)
   expectRefused(in + out + " --max-deviation x%", 2, none, "not a number or a percentage");
   expectRefused(in + out + " --terr-abs 0.001 --terr 1e-3", 2, none, "exclude each other");
   expectRefused(in + out + " --terr-abs 0.001 --target-ratio 0.1", 2, none, "exclude each other");
+  expectRefused(in + out + " --feature-spacing 1 --target-ratio 0.1", 2, none, "thins the feature points itself");
+  expectRefused(in + out + " --feature-spacing -1", 2, none, "feature_spacing");
+  expectRefused(in + out + " --feature-spacing 1 --stream", 4, none, "--feature-spacing is not supported");
 }
 
 TEST_F(Cli, MaxDeviationHoldsOnEverySharedScan)

@@ -78,10 +78,10 @@ def test_float32_and_float64_give_the_same_cloud():
 def test_every_parameter_is_a_keyword_that_round_trips():
     defaults = pcl_ecs.Parameters()
     names = pcl_ecs.parameter_names()
-    assert "error_threshold" in names and "target_size" in names and len(names) == 21
+    assert "error_threshold" in names and "target_size" in names and len(names) == 22
     changed = {"error_threshold": 0.002, "error_threshold_abs": 0.05, "feature_factor": 5.0, "k_neighbors": 12, "error_form": "paper",
                "adaptive": False, "adaptive_factor": 3.0, "radius_cap_factor": 4.0, "target_radius_cap": 2.0,
-               "max_representative_offset": 0.7, "representative_cutoff": 0.1, "max_roughness": 0.3, "representative_fit": False,
+               "max_representative_offset": 0.7, "representative_cutoff": 0.1, "max_roughness": 0.3, "representative_fit": False, "feature_spacing": 1.5,
                "max_gap_factor": 0.8, "target_gap_factor": 0.5, "seed": 7, "threads": 1,
                "use_input_normals": False, "target_size": 0, "max_deviation": 0.05,
                "report_deviation": True}

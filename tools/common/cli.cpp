@@ -76,6 +76,9 @@ void checkFilterFlagConflicts(const ArgWalker& args, bool target_ratio_given)
     throw UsageError(std::string("--terr-abs and ") +
                      (args.given("--terr") ? "--terr" : target_ratio_given ? "--target-ratio" : "--target-size") +
                      " exclude each other: give one error bound, or the size");
+  if (args.given("--feature-spacing") && target)
+    throw UsageError(std::string("--feature-spacing and ") + (target_ratio_given ? "--target-ratio" : "--target-size") +
+                     " exclude each other: a target size thins the feature points itself");
   if (args.given("--max-deviation") && target)
     throw UsageError(std::string("--max-deviation and ") + (target_ratio_given ? "--target-ratio" : "--target-size") +
                      " exclude each other: the points the bound adds change the size");

@@ -210,6 +210,7 @@ nlohmann::json runStatsJson(const Summary& s, const Parameters& p, double target
   j["parameters"] = parametersJson(p);
   j["parameters"]["terr-used"] = s.error_threshold;
   j["parameters"]["radius-cap-used"] = s.radius_cap_factor;
+  j["parameters"]["feature-spacing-used"] = s.feature_spacing;
   j["parameters"]["max-gap-used"] = s.radius_cap_factor > 0.0 && s.neighborhood_radius > 0.0
                                         ? s.max_gap / (s.radius_cap_factor * s.neighborhood_radius)
                                         : p.max_gap_factor;
@@ -217,6 +218,7 @@ nlohmann::json runStatsJson(const Summary& s, const Parameters& p, double target
   j["counts"] = {{"input_points", s.input_points},
                  {"finite_points", s.finite_points},
                  {"feature_points", s.feature_points},
+                 {"thinned_features", s.thinned_features},
                  {"balls", s.balls},
                  {"output_points", s.output_points},
                  {"centre_fallbacks", s.centre_fallbacks},

@@ -86,6 +86,10 @@ public:
    * its radius keeps its centre (Parameters::max_roughness). */
   void setMaxRoughness(double fraction) { params_.max_roughness = fraction; }
   double getMaxRoughness() const { return params_.max_roughness; }
+  /** \brief Feature points thinned along the edges to one per this many mean neighbourhood radii;
+   * 0 keeps them all (Parameters::feature_spacing; a target size sets it itself). */
+  void setFeatureSpacing(double radii) { params_.feature_spacing = radii; }
+  double getFeatureSpacing() const { return params_.feature_spacing; }
   /** \brief Move a smooth ball's representative onto the quadratic fitted to its points (default
    * on; off is the paper's method; Parameters::representative_fit). */
   void setRepresentativeFit(bool on) { params_.representative_fit = on; }

@@ -125,6 +125,15 @@ struct Parameters
    * search widens it in ×1.1 steps up to the cap. 0 turns it off. Range: 0 or (0, 100]. Default 0.6. */
   double target_gap_factor = 0.6;
 
+  /** \brief Feature points thinned along the edges to one per this many mean neighbourhood radii
+   * (stages/feature_thinning.h): on a noisy scan eq. 4 marks a band several points wide along every
+   * sharp edge, which a small output cannot afford. A dropped feature point is stood for by a kept
+   * one within that distance. 0 keeps every feature point (the paper's method). With a target
+   * size the search sets it (half the spacing the target implies, wider while the feature points
+   * would take more than half the target) and Summary::feature_spacing says what it used, so a
+   * plain run with it reproduces the output. Range: 0 or (0, 1000]. Default 0. */
+  double feature_spacing = 0.0;
+
   /** \brief A bound on the error a user means: every input point ends within this distance (input
    * units) of the output's surface (stages/surface_deviation.h: the plane of its 8 nearest output
    * points, or its nearest output point when closer); points that would lie farther become output

@@ -54,7 +54,10 @@ struct Summary
   std::size_t input_points = 0;      ///< points of the input (or of setIndices)
   std::size_t finite_points = 0;     ///< of those, the finite ones
   std::size_t merged_points = 0;     ///< of those, points at exactly the place of another, merged into it
-  std::size_t feature_points = 0;    ///< m
+  std::size_t feature_points = 0;    ///< m, the feature points in the output
+  std::size_t thinned_features = 0;  ///< feature points left out, each within feature_spacing of a
+                                     ///< kept one (stages/feature_thinning.h)
+  double feature_spacing = 0;        ///< the feature thinning used, in mean neighbourhood radii (0: none)
   std::size_t balls = 0;             ///< n, the number of representatives
   std::size_t output_points = 0;     ///< m + n
   std::size_t centre_fallbacks = 0;  ///< balls whose representative is their centre

@@ -26,6 +26,9 @@ struct CoreOutput
   std::vector<double> weights;          ///< eq. 1
   std::vector<double> measure;          ///< eq. 3
   std::vector<std::uint8_t> is_feature; ///< eq. 4
+  /// target size only (stages/feature_thinning.h): for a feature point, the kept feature point
+  /// standing for it (itself when kept); empty when every feature point is kept
+  std::vector<std::int64_t> feature_kept_by;
   std::vector<double> density;          ///< eq. 5
   std::vector<double> curvature;        ///< eq. 11
   CoverOutput cover;                    ///< steps 2-7

@@ -1,6 +1,7 @@
 // point_grid.h (private) — points hashed into cubes of a fixed side, to ask whether one lies
 // within a distance (at most the side) of a query: only the 27 cubes around the query's can hold
-// it. The gap bound (stages/gap_fill) and the deviation bound (stages/surface_deviation) use it.
+// it, or which is nearest. The gap bound (stages/gap_fill), the deviation bound
+// (stages/surface_deviation) and the feature thinning (stages/feature_thinning) use it.
 #pragma once
 
 #include <algorithm>
@@ -18,7 +19,7 @@ class PointGrid
 public:
   explicit PointGrid(double side) : side_(side), inv_(1.0 / side) {}
 
-  void insert(const Eigen::Vector3d& p) { cells_[key(cellOf(p))].push_back(p); }
+  void insert(const Eigen::Vector3d& p, std::int64_t id = -1) { cells_[key(cellOf(p))].push_back({p, id}); }
 
   /// True when an inserted point lies within `r` (<= the side) of q.
   bool near(const Eigen::Vector3d& q, double r) const
@@ -32,11 +33,38 @@ public:
           const auto it = cells_.find(key(c + Eigen::Vector3d(dx, dy, dz)));
           if (it == cells_.end())
             continue;
-          for (const Eigen::Vector3d& p : it->second)
-            if ((p - q).squaredNorm() <= r2)
+          for (const Entry& e : it->second)
+            if ((e.p - q).squaredNorm() <= r2)
               return true;
         }
     return false;
+  }
+
+  /// The id of the inserted point nearest q within `r` (<= the side; ties: the lower id), or −1.
+  std::int64_t nearest(const Eigen::Vector3d& q, double r) const
+  {
+    const double r2 = r * r;
+    double best = r2;
+    std::int64_t id = -1;
+    const Eigen::Vector3d c = cellOf(q);
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz)
+        {
+          const auto it = cells_.find(key(c + Eigen::Vector3d(dx, dy, dz)));
+          if (it == cells_.end())
+            continue;
+          for (const Entry& e : it->second)
+          {
+            const double d2 = (e.p - q).squaredNorm();
+            if (d2 <= r2 && (id < 0 || d2 < best || (d2 == best && e.id < id)))
+            {
+              best = d2;
+              id = e.id;
+            }
+          }
+        }
+    return id;
   }
   /// The same within the side.
   bool near(const Eigen::Vector3d& q) const { return near(q, side_); }
@@ -53,8 +81,13 @@ private:
     return u(cell.x()) | (u(cell.y()) << 21) | (u(cell.z()) << 42);
   }
 
+  struct Entry
+  {
+    Eigen::Vector3d p;
+    std::int64_t id;
+  };
   double side_, inv_;
-  std::unordered_map<std::uint64_t, std::vector<Eigen::Vector3d>> cells_;
+  std::unordered_map<std::uint64_t, std::vector<Entry>> cells_;
 };
 
 }  // namespace pcl_ecs

@@ -63,7 +63,7 @@ std::vector<Eigen::Vector3d> outputPositions(const CoverInput& in, const CoverOu
   std::vector<Eigen::Vector3d> outputs;
   outputs.reserve(out.balls.size());
   for (std::size_t i = 0; i < in.cloud.size(); ++i)
-    if (in.is_feature[i])
+    if (in.featureOutput(i))
       outputs.push_back(in.cloud[i].getVector3fMap().cast<double>());
   for (const CoverBall& b : out.balls)
     outputs.push_back(b.representative);

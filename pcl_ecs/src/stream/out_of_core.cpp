@@ -92,6 +92,8 @@ void Runner::prepare(bool plan_if_missing)
   if (params_.max_deviation > 0.0 || params_.max_deviation_of_L > 0.0 || params_.report_deviation)
     failRun("--stream does not measure or bound the deviation (--max-deviation, --report-deviation); run in "
             "memory for those");
+  if (params_.feature_spacing > 0.0)
+    failRun("--stream keeps every feature point; --feature-spacing is not supported with it");
   const int threads = resolveThreads(params_.threads);
   threads_ = threads;
   workers_ = std::min(threads, kConcurrentTiles);

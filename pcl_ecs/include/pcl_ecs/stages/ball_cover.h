@@ -56,6 +56,15 @@ struct CoverInput
   /// optional (the out-of-core path): points covered already (by a neighbouring tile's balls);
   /// they still shape the quadrics but are neither centres nor claimed again (owner stays -1)
   const std::vector<std::uint8_t>* pre_covered = nullptr;
+  /// optional (target size, stages/feature_thinning.h): feature point i is an output point only
+  /// when (*feature_kept_by)[i] == i; the others are stood for by that kept one
+  const std::vector<std::int64_t>* feature_kept_by = nullptr;
+
+  /// Whether point i is an output point as a feature point.
+  bool featureOutput(std::size_t i) const
+  {
+    return is_feature[i] && (!feature_kept_by || (*feature_kept_by)[i] == static_cast<std::int64_t>(i));
+  }
 };
 
 /** \brief The cover's input: the per-point values of eq. 1-12 and the means over the whole cloud
