@@ -364,7 +364,6 @@ nb::dict streamSummary(const pcl_ecs::stream::StreamSummary& s)
   counts["finite_points"] = s.finite_points;
   counts["merged_points"] = s.merged_points;
   counts["feature_points"] = s.feature_points;
-  counts["thinned_features"] = s.thinned_features;
   counts["balls"] = s.balls;
   counts["gap_points"] = s.gap_points;
   counts["output_points"] = s.output_points;
