@@ -107,18 +107,20 @@ Cloud fromCgal(const std::vector<K::Point_3>& v)
 
 /// One method at one parameter; `target` is for the methods that take a count.
 Cloud runMethod(const std::string& m, const Cloud::Ptr& in, double param, std::size_t target, double cap = 0,
-                double gap = -1)
+                double gap = -1, double feature_spacing = 0)
 {
   Cloud out;
   if (m == "pcl_ecs")
   {
-    // The T_err, radius cap and gap bound that the target-size search found (in the parent, untimed).
+    // The T_err, radius cap, gap bound and feature spacing that the target-size search found (in
+    // the parent, untimed): the plain run with them gives the target run's output.
     pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> f;
     f.setErrorThreshold(param);
     if (cap > 0)
       f.setRadiusCapFactor(cap);
     if (gap >= 0)
       f.setMaxGapFactor(gap);
+    f.setFeatureSpacing(feature_spacing);
     f.setInputCloud(in);
     f.filter(out);
   }
@@ -266,7 +268,7 @@ int main(int argc, char** argv)
 {
   std::string data = "../shared/data", out_path = "peers.json", workdir = "/tmp/pcl_ecs_peers", input, write;
   std::string child, python, py_peers;
-  double param = 0, cap = 0, gap = -1;
+  double param = 0, cap = 0, gap = -1, feature_spacing = 0;
   std::size_t target = 0;
   std::vector<double> ratios = {0.10, 0.03, 0.01};
   std::vector<std::string> only, methods = kMethods;
@@ -318,6 +320,8 @@ int main(int argc, char** argv)
       cap = std::stod(next());
     else if (a == "--gap")
       gap = std::stod(next());
+    else if (a == "--feature-spacing")
+      feature_spacing = std::stod(next());
     else
     {
       std::fprintf(stderr, "bench_peers: unknown argument %s\n", a.c_str());
@@ -331,7 +335,7 @@ int main(int argc, char** argv)
     pcl::io::loadPCDFile(input, *in);
     Cloud out;
     const Measure m = measureHere([&] {
-      out = runMethod(child, in, param, target, cap, gap);
+      out = runMethod(child, in, param, target, cap, gap, feature_spacing);
       return out.size();
     });
     if (!write.empty() && !out.empty())
@@ -396,7 +400,7 @@ int main(int argc, char** argv)
           continue;
         }
         // The parameter for the size (untimed, in this process).
-        double p = 0, cap_used = 0, gap_used = -1;
+        double p = 0, cap_used = 0, gap_used = -1, spacing_used = 0;
         if (m == "pcl_ecs")
         {
           pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> f;
@@ -407,6 +411,7 @@ int main(int argc, char** argv)
           p = f.getResult().summary.error_threshold;
           const auto& s = f.getResult().summary;
           cap_used = s.radius_cap_factor;
+          spacing_used = s.feature_spacing;
           // The gap bound as a factor of that cap (the search may have widened it).
           gap_used = s.max_gap > 0 ? s.max_gap / (s.radius_cap_factor * s.neighborhood_radius) : 0.0;
         }
@@ -423,12 +428,16 @@ int main(int argc, char** argv)
           extra << " --cap " << cap_used;
         if (gap_used >= 0)
           extra << " --gap " << gap_used;
+        if (spacing_used > 0)
+          extra << " --feature-spacing " << spacing_used;
         Measure meas;
         nlohmann::json j = {{"method", m}, {"label", label(m)}, {"parameter", p}};
         if (cap_used > 0)
           j["radius_cap_factor"] = cap_used;
         if (gap_used >= 0)
           j["max_gap_factor"] = gap_used;
+        if (spacing_used > 0)
+          j["feature_spacing"] = spacing_used;
         try
         {
           meas = isPython(m) ? runPython(python, py_peers, m, raw_path, want, out_file)

@@ -265,7 +265,7 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
   }
 
   // The representative on the surface the members describe (representative_fit.h), in smooth balls.
-  if (params.representative_fit && offset && smoothQuadric(sol.quadric, params.representative_cutoff))
+  if (params.representative_fit && offset && smoothQuadric(sol.quadric, kSmoothQuadricRatio))
     if (const auto fitted = fitRepresentativeHeight(w.offsets, w.distances, sol.radius, in.normals[cs].cast<double>(),
                                                     v_offset))
     {

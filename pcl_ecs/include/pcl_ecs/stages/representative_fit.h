@@ -2,8 +2,9 @@
 //
 // The quadric's minimiser (eq. 13) averages the tangent planes of the ball's points. On a curved
 // patch those planes meet off the surface (outside a convex one, by about κr²/4), and on a noisy
-// scan the minimiser keeps part of the noise. Where the ball is smooth (its quadric has one
-// dominant direction: no sharp edge inside), the representative's height along the centre's
+// scan the minimiser keeps part of the noise. Where the ball is smooth (its quadric's second
+// eigenvalue is below kSmoothQuadricRatio × its largest: no sharp edge inside), the
+// representative's height along the centre's
 // normal is replaced by the height of the weighted least-squares quadratic through the ball's
 // points, h(u, v) = k0 + k1 u + k2 v + k3 u² + k4 uv + k5 v² in the centre's tangent frame, with
 // the weights G_r(|p_j − c|) (the kernel with support r, as the ball's normal average uses). Its
@@ -21,12 +22,18 @@
 namespace pcl_ecs
 {
 
+/** \brief A ball is smooth below this ratio of its quadric's second to largest eigenvalue. The
+ * normals of a curved ball spread continuously and raise the ratio with the ball's size; an edge
+ * between two faces raises it towards 1. Chosen on the tuning half (docs/RESULTS.md) against
+ * 0.05 (the representative cutoff: the fit then misses most large curved balls) and no gate (the
+ * fit then rounds the CAD parts' edges: 10-30% farther from their meshes). */
+constexpr double kSmoothQuadricRatio = 0.2;
+
 /** \brief Fewest members the quadratic is fitted to (twice its six coefficients). */
 constexpr std::size_t kRepresentativeFitMinPoints = 12;
 
 /** \brief True when the quadric has one dominant direction: its second eigenvalue is below
- * `cutoff` × its largest (the cutoff of the representative's minimiser). An empty quadric is not
- * smooth. */
+ * `cutoff` × its largest. An empty quadric is not smooth. */
 bool smoothQuadric(const Quadric& q, double cutoff);
 
 /** \brief The offset x (from the centre) moved along `normal` (unit, the centre's) onto the
