@@ -16,9 +16,9 @@ if [[ ! -x $here/.venv/bin/python ]]; then
 fi
 "$here/.venv/bin/pip" install --quiet -r "$here/requirements.txt"
 py=(--python "$here/.venv/bin/python" --py-peers "$here/py_peers.py")
-mkdir -p "$here/results"
+mkdir -p "$here/results" "$work"
 "$build/bench/bench_peers" --data "$data" --out "$here/results/peers_sweep.json" --workdir "$work/sweep" "${py[@]}" \
-  --inputs bunny,fandisk --ratios 0.2,0.05,0.02,0.01 2>/dev/null > "$here/results/peers_sweep.md"
+  --inputs bunny,fandisk --ratios 0.2,0.05,0.02,0.01 2>/dev/null > "$work/peers_sweep.md"
 "$build/bench/bench_peers" --data "$data" --out "$here/results/peers.json" --workdir "$work" "${py[@]}" \
-  --ratios 0.1,0.03,0.01 2>/dev/null | tee "$here/results/peers.md"
+  --ratios 0.1,0.03,0.01 2>/dev/null | tee "$work/peers.md"
 "$here/.venv/bin/python" "$here/make_results.py" "$work"
