@@ -59,9 +59,10 @@ TEST(RepresentativeFit, LandsExactlyOnAQuadraticSurface)
     const Eigen::Vector3d x = u * t1 + v * t2 + off * n;
     const auto fitted = pcl_ecs::fitRepresentativeHeight(b.offsets, b.distances, r, n, x);
     ASSERT_TRUE(fitted.has_value());
-    EXPECT_NEAR(t1.dot(*fitted), u, 1e-12);
-    EXPECT_NEAR(t2.dot(*fitted), v, 1e-12);
-    EXPECT_NEAR(n.dot(*fitted), h(u, v), 1e-9);
+    EXPECT_NEAR(t1.dot(fitted->offset), u, 1e-12);
+    EXPECT_NEAR(t2.dot(fitted->offset), v, 1e-12);
+    EXPECT_NEAR(n.dot(fitted->offset), h(u, v), 1e-9);
+    EXPECT_NEAR(fitted->residual, 0.0, 1e-6);
   }
 }
 
@@ -77,9 +78,10 @@ TEST(RepresentativeFit, AveragesSymmetricNoiseAway)
   up.distances.insert(up.distances.end(), down.distances.begin(), down.distances.end());
   const auto fitted = pcl_ecs::fitRepresentativeHeight(up.offsets, up.distances, r, n, {0.1, 0.2, 0.7 * e});
   ASSERT_TRUE(fitted.has_value());
-  EXPECT_NEAR(fitted->z(), 0.0, 1e-12);
-  EXPECT_NEAR(fitted->x(), 0.1, 1e-15);
-  EXPECT_NEAR(fitted->y(), 0.2, 1e-15);
+  EXPECT_NEAR(fitted->offset.z(), 0.0, 1e-12);
+  EXPECT_NEAR(fitted->residual, e / r, 1e-9);  // every point e off the fit
+  EXPECT_NEAR(fitted->offset.x(), 0.1, 1e-15);
+  EXPECT_NEAR(fitted->offset.y(), 0.2, 1e-15);
 }
 
 TEST(RepresentativeFit, RefusesTooFewOrDegenerateMembersAndFarHeights)
@@ -157,4 +159,22 @@ TEST(RepresentativeFit, RepresentativesOfANoisySphereLieOnIt)
               with, with_n, without, without_n);
   EXPECT_LT(with, 0.5 * input);
   EXPECT_LT(with, 0.7 * without);
+}
+
+// The residual that admits a ball that is not smooth: a large ball on a sphere of radius 2r (its
+// normals spread by ±25°) is fitted within 0.02 r; a ball across a crease (faces at ±30° about
+// the tangent plane) is not.
+TEST(RepresentativeFit, TheResidualTellsACurvedPatchFromACrease)
+{
+  const Eigen::Vector3d n = Eigen::Vector3d::UnitZ();
+  const double r = 1.0, R = 2.0;
+  const Ball cap = ballOn(n, r, [&](double u, double v) { return R - std::sqrt(R * R - u * u - v * v); });
+  const Ball crease = ballOn(n, r, [](double u, double) { return std::abs(u) * std::tan(M_PI / 6.0); });
+  const auto on_cap = pcl_ecs::fitRepresentativeHeight(cap.offsets, cap.distances, r, n, Eigen::Vector3d::Zero());
+  const auto on_crease = pcl_ecs::fitRepresentativeHeight(crease.offsets, crease.distances, r, n, Eigen::Vector3d::Zero());
+  ASSERT_TRUE(on_cap.has_value());
+  ASSERT_TRUE(on_crease.has_value());
+  std::printf("residual: cap %.4f, crease %.4f (of r)\n", on_cap->residual, on_crease->residual);
+  EXPECT_LT(on_cap->residual, pcl_ecs::kCurvedBallFitResidual);
+  EXPECT_GT(on_crease->residual, pcl_ecs::kCurvedBallFitResidual);
 }

@@ -264,13 +264,17 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
     w.offsets.push_back(Eigen::Vector3d::Zero());
   }
 
-  // The representative on the surface the members describe (representative_fit.h), in smooth balls.
-  if (params.representative_fit && offset && smoothQuadric(sol.quadric, kSmoothQuadricRatio))
+  // The representative on the surface the members describe (representative_fit.h): in smooth
+  // balls, and in curved ones that the quadratic fits closely.
+  if (params.representative_fit && offset)
     if (const auto fitted = fitRepresentativeHeight(w.offsets, w.distances, sol.radius, in.normals[cs].cast<double>(),
                                                     v_offset))
     {
-      v_offset = *fitted;
-      ball.representative = centre + v_offset;
+      if (smoothQuadric(sol.quadric, kSmoothQuadricRatio) || fitted->residual < kCurvedBallFitResidual)
+      {
+        v_offset = fitted->offset;
+        ball.representative = centre + v_offset;
+      }
     }
 
   // Attributes: from the member nearest to v; normal averaged over the ball with c's sign.

@@ -6,6 +6,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 
+#include <algorithm>
 #include <cmath>
 
 namespace pcl_ecs
@@ -18,7 +19,7 @@ bool smoothQuadric(const Quadric& q, double cutoff)
   return largest > 0.0 && es.eigenvalues()(1) < cutoff * largest;
 }
 
-std::optional<Eigen::Vector3d> fitRepresentativeHeight(const std::vector<Eigen::Vector3d>& offsets,
+std::optional<RepresentativeFit> fitRepresentativeHeight(const std::vector<Eigen::Vector3d>& offsets,
                                                        const std::vector<double>& distances, double radius,
                                                        const Eigen::Vector3d& normal, const Eigen::Vector3d& x)
 {
@@ -34,12 +35,15 @@ std::optional<Eigen::Vector3d> fitRepresentativeHeight(const std::vector<Eigen::
   };
   Eigen::Matrix<double, 6, 6> normal_matrix = Eigen::Matrix<double, 6, 6>::Zero();
   Vector6 rhs = Vector6::Zero();
+  double height_sq = 0.0;  // Σ g h²: with the normal equations, the fit's residual
   for (std::size_t j = 0; j < offsets.size(); ++j)
   {
     const double g = kernelG(distances[j], radius);
     const Vector6 phi = basis(offsets[j]);
+    const double h = normal.dot(offsets[j]);
     normal_matrix.noalias() += g * phi * phi.transpose();
-    rhs += (g * normal.dot(offsets[j])) * phi;
+    rhs += (g * h) * phi;
+    height_sq += g * h * h;
   }
   Eigen::ColPivHouseholderQR<Eigen::Matrix<double, 6, 6>> qr(normal_matrix);
   qr.setThreshold(1e-10);
@@ -49,7 +53,11 @@ std::optional<Eigen::Vector3d> fitRepresentativeHeight(const std::vector<Eigen::
   const double height = k.dot(basis(x));
   if (!std::isfinite(height) || !(std::abs(height) < radius))
     return std::nullopt;
-  return Eigen::Vector3d(x - normal.dot(x) * normal + height * normal);
+  RepresentativeFit fit;
+  fit.offset = x - normal.dot(x) * normal + height * normal;
+  // Σ g (h − φᵀk)² = Σ g h² − kᵀ rhs at the least-squares k; Σ g is the (0, 0) entry.
+  fit.residual = std::sqrt(std::max(0.0, height_sq - k.dot(rhs)) / normal_matrix(0, 0)) / radius;
+  return fit;
 }
 
 }  // namespace pcl_ecs
