@@ -1,5 +1,6 @@
 // The filter as a user sees it: analytic shapes with exact expectations, the shared scans, and
 // the pcl::Filter contract.
+#include <pcl_ecs/eval/quality_metrics.h>
 #include <pcl_ecs/feature_aware_cover_simplify.h>
 
 #include "synthetic_shapes.h"
@@ -675,7 +676,8 @@ TEST(Filter, CoincidentPointsAreMergedIntoOne)
 // A cloud concatenated with a copy of itself moved by one float ulp on every axis (what a
 // re-export or a transform leaves of a duplicate): the copies are merged as coincident points, so
 // the output is the cloud's own, in T_err mode and at a target size (it had 4.6× the features and
-// a 10× larger T_err at the same size before).
+// a 10× larger T_err at the same size before): the same size within 1% and, measured against the
+// cloud once, the same surface deviation, tangent offset and coverage within 2%.
 TEST(Filter, PointsThatDifferByRoundingAreMerged)
 {
   auto once = loadShared("bunny.pcd");
@@ -693,6 +695,13 @@ TEST(Filter, PointsThatDifferByRoundingAreMerged)
     EXPECT_NEAR(static_cast<double>(out_b.size()), static_cast<double>(out_a.size()), 0.01 * out_a.size()) << target;
     EXPECT_NEAR(static_cast<double>(s.feature_points), static_cast<double>(a.getResult().summary.feature_points), 3.0)
         << target;
+    pcl_ecs::eval::QualityMetrics qa, qb;
+    ASSERT_TRUE(pcl_ecs::eval::evaluateQuality(*once, out_a, nullptr, qa));
+    ASSERT_TRUE(pcl_ecs::eval::evaluateQuality(*once, out_b, nullptr, qb));
+    EXPECT_NEAR(qb.surface_rms, qa.surface_rms, 0.02 * qa.surface_rms) << target;
+    EXPECT_NEAR(qb.tangent_rms, qa.tangent_rms, 0.02 * qa.tangent_rms) << target;
+    EXPECT_NEAR(qb.coverage_mean, qa.coverage_mean, 0.02 * qa.coverage_mean) << target;
+    EXPECT_NEAR(qb.coverage_max, qa.coverage_max, 0.02 * qa.coverage_max) << target;
   }
 }
 
