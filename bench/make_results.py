@@ -318,6 +318,9 @@ def main():
         lines += t + [""]
     ratio_png = ratio_plot(columns_by_half)
     lines += [f"![{ratio_png}]({ratio_png})", ""]
+    rules = os.path.join(RESULTS, "rules.md")  # bench/rules.py
+    if os.path.exists(rules):
+        lines += [open(rules).read()]
     if plots:
         lines += ["## Error against output size", ""] + [f"![{p}]({p})" for p in plots] + [""]
     if picture:

@@ -25,20 +25,12 @@ public:
   bool near(const Eigen::Vector3d& q, double r) const
   {
     const double r2 = r * r;
-    const Eigen::Vector3d c = cellOf(q);
-    for (int dx = -1; dx <= 1; ++dx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dz = -1; dz <= 1; ++dz)
-        {
-          const auto it = cells_.find(key(c + Eigen::Vector3d(dx, dy, dz)));
-          if (it == cells_.end())
-            continue;
-          for (const Entry& e : it->second)
-            if ((e.p - q).squaredNorm() <= r2)
-              return true;
-        }
-    return false;
+    bool found = false;
+    forEachAround(q, [&](const Entry& e) { return found = (e.p - q).squaredNorm() <= r2; });
+    return found;
   }
+  /// The same within the side.
+  bool near(const Eigen::Vector3d& q) const { return near(q, side_); }
 
   /// The id of the inserted point nearest q within `r` (<= the side; ties: the lower id), or −1.
   std::int64_t nearest(const Eigen::Vector3d& q, double r) const
@@ -46,30 +38,43 @@ public:
     const double r2 = r * r;
     double best = r2;
     std::int64_t id = -1;
+    forEachAround(q, [&](const Entry& e) {
+      const double d2 = (e.p - q).squaredNorm();
+      if (d2 <= r2 && (id < 0 || d2 < best || (d2 == best && e.id < id)))
+      {
+        best = d2;
+        id = e.id;
+      }
+      return false;
+    });
+    return id;
+  }
+
+private:
+  struct Entry
+  {
+    Eigen::Vector3d p;
+    std::int64_t id;
+  };
+
+  /// Every entry in the 27 cells around q's (only they can lie within the side of q), until
+  /// `visit` returns true.
+  template <typename F>
+  void forEachAround(const Eigen::Vector3d& q, F visit) const
+  {
     const Eigen::Vector3d c = cellOf(q);
     for (int dx = -1; dx <= 1; ++dx)
       for (int dy = -1; dy <= 1; ++dy)
         for (int dz = -1; dz <= 1; ++dz)
         {
           const auto it = cells_.find(key(c + Eigen::Vector3d(dx, dy, dz)));
-          if (it == cells_.end())
-            continue;
-          for (const Entry& e : it->second)
-          {
-            const double d2 = (e.p - q).squaredNorm();
-            if (d2 <= r2 && (id < 0 || d2 < best || (d2 == best && e.id < id)))
-            {
-              best = d2;
-              id = e.id;
-            }
-          }
+          if (it != cells_.end())
+            for (const Entry& e : it->second)
+              if (visit(e))
+                return;
         }
-    return id;
   }
-  /// The same within the side.
-  bool near(const Eigen::Vector3d& q) const { return near(q, side_); }
 
-private:
   Eigen::Vector3d cellOf(const Eigen::Vector3d& p) const { return (p * inv_).array().floor(); }
   /// 21 bits of each cell coordinate (clamped before the cast: cells that share a key only share
   /// a bucket; the distances decide).
@@ -81,11 +86,6 @@ private:
     return u(cell.x()) | (u(cell.y()) << 21) | (u(cell.z()) << 42);
   }
 
-  struct Entry
-  {
-    Eigen::Vector3d p;
-    std::int64_t id;
-  };
   double side_, inv_;
   std::unordered_map<std::uint64_t, std::vector<Entry>> cells_;
 };

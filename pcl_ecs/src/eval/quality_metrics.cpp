@@ -70,6 +70,30 @@ struct Index
   NanoflannSearch search;
 };
 
+/// The least-squares plane of some points: their centroid and the least-variance direction.
+struct Plane
+{
+  Eigen::Vector3d centroid, normal;
+};
+
+Plane fitPlane(const pcl::PointCloud<pcl::PointXYZ>& cloud, const pcl::Indices& idx)
+{
+  Plane plane;
+  plane.centroid = Eigen::Vector3d::Zero();
+  for (const int j : idx)
+    plane.centroid += cloud[static_cast<std::size_t>(j)].getVector3fMap().cast<double>();
+  plane.centroid /= static_cast<double>(idx.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const int j : idx)
+  {
+    const Eigen::Vector3d d = cloud[static_cast<std::size_t>(j)].getVector3fMap().cast<double>() - plane.centroid;
+    cov += d * d.transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  plane.normal = es.eigenvectors().col(0);
+  return plane;
+}
+
 /// |n · (q − p)|: the offset of `q` (local frame of `orig`) from the original point `p` along p's
 /// normal, the least-variance direction of p's `k` nearest original points. Below 3 neighbours
 /// there is no normal and the whole distance counts.
@@ -81,18 +105,7 @@ double tangentOffset(const Index& orig, const Eigen::Vector3d& p, const Eigen::V
   orig.search.nearestKSearch(orig.toLocal(p), k, idx, d2);
   if (idx.size() < 3)
     return (q - pl).norm();
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  for (const int j : idx)
-    c += (*orig.local)[static_cast<std::size_t>(j)].getVector3fMap().cast<double>();
-  c /= static_cast<double>(idx.size());
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const int j : idx)
-  {
-    const Eigen::Vector3d d = (*orig.local)[static_cast<std::size_t>(j)].getVector3fMap().cast<double>() - c;
-    cov += d * d.transpose();
-  }
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
-  return std::abs((q - pl).dot(es.eigenvectors().col(0)));
+  return std::abs((q - pl).dot(fitPlane(*orig.local, idx).normal));
 }
 }  // namespace
 
@@ -164,23 +177,9 @@ bool evaluateQuality(const pcl::PointCloud<pcl::PointXYZ>& original,
     cover[static_cast<std::size_t>(i)] = std::sqrt(static_cast<double>(d2[0])) / L;
     const Eigen::Vector3d nearest_out = (*simp.local)[static_cast<std::size_t>(idx[0])].getVector3fMap().cast<double>();
     tangent[static_cast<std::size_t>(i)] = tangentOffset(orig, p, nearest_out, k_normal) / L;
-    Eigen::Vector3d c = Eigen::Vector3d::Zero();
-    for (const int j : idx)
-      c += (*simp.local)[static_cast<std::size_t>(j)].getVector3fMap().cast<double>();
-    c /= static_cast<double>(idx.size());
-    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-    for (const int j : idx)
-    {
-      const Eigen::Vector3d q = (*simp.local)[static_cast<std::size_t>(j)].getVector3fMap().cast<double>() - c;
-      cov += q * q.transpose();
-    }
-    double dev = (simp.toLocal(p).getVector3fMap().cast<double>() - c).norm();
-    if (idx.size() >= 3)
-    {
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
-      const Eigen::Vector3d n = es.eigenvectors().col(0);
-      dev = std::abs((simp.toLocal(p).getVector3fMap().cast<double>() - c).dot(n));
-    }
+    const Plane plane = fitPlane(*simp.local, idx);
+    const Eigen::Vector3d offset = simp.toLocal(p).getVector3fMap().cast<double>() - plane.centroid;
+    const double dev = idx.size() >= 3 ? std::abs(offset.dot(plane.normal)) : offset.norm();
     deviation[static_cast<std::size_t>(i)] = dev / L;
   }
   out.surface_rms = rms(deviation);
