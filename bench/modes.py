@@ -5,10 +5,11 @@ output size, in one run (docs/BENCHMARKS.md). Run through bench/run_modes.sh.
 For each input and kept ratio:
   pcd_simplify --target-ratio R             what users ask first ("give me N points")
   pcd_simplify --target-size N              the same size given as a count
-  pcd_simplify --terr T --radius-cap C --max-gap G
+  pcd_simplify --terr T --radius-cap C --max-gap G --feature-spacing F
                                             the plain run at the settings the target run settled
                                             on: the same output, one cover
-  pcd_simplify --stream (same flags)        out of core
+  pcd_simplify --stream (the same flags but F: every feature point kept)
+                                            out of core
   PCL VoxelGrid, CGAL hierarchy_simplify_point_set   calibrated to the target run's size
                                             (bench_throughput --peers-only: the algorithm's time
                                             in a process of its own, input already loaded)
@@ -122,11 +123,14 @@ def main():
             size, target = c["output_points"], st["target"]["size"]
             plain = ["--terr", repr(p["terr-used"]), "--radius-cap", repr(p["radius-cap-used"]),
                      "--max-gap", repr(p["max-gap-used"])]
+            # The feature thinning the target chose: in the plain run, not out of core (--stream
+            # keeps every feature point, so its output is larger where the target thinned them).
+            thinning = ["--feature-spacing", repr(p["feature-spacing-used"])] if p.get("feature-spacing-used") else []
             row = {"input": name, "points": c["finite_points"], "ratio": ratio, "target": target, "size": size,
                    "cover_passes": c["cover_passes"], "target_iterations": c["target_iterations"]}
             row["target_ratio_s"] = least_wall([simplify, path, out, "--target-ratio", str(ratio), "-q"], args.repeat)
             row["target_size_s"] = least_wall([simplify, path, out, "--target-size", str(target), "-q"], args.repeat)
-            row["terr_s"] = least_wall([simplify, path, out] + plain + ["-q"], args.repeat)
+            row["terr_s"] = least_wall([simplify, path, out] + plain + thinning + ["-q"], args.repeat)
             stream_out = os.path.join(work, "stream.pcd")
             row["stream_s"] = least_wall([simplify, path, stream_out, "--stream"] + plain + ["-q"], args.repeat)
             peer_json = os.path.join(work, "peers.json")
