@@ -65,6 +65,20 @@ inline Measure measureHere(const std::function<std::size_t()>& run)
   return m;
 }
 
+/// Run `cmd` (through a shell) and parse the line "SIZE SECONDS PEAK_EXTRA_MIB" it prints.
+inline Measure runMeasured(const std::string& cmd)
+{
+  FILE* pipe = ::popen(cmd.c_str(), "r");
+  if (!pipe)
+    throw std::runtime_error("cannot start " + cmd);
+  Measure m;
+  const int got = std::fscanf(pipe, "%zu %lf %lf", &m.size, &m.seconds, &m.peak_extra_mib);
+  const int status = ::pclose(pipe);
+  if (got != 3 || status != 0)
+    throw std::runtime_error("the child run failed: " + cmd);
+  return m;
+}
+
 /// Run this program again as `--child METHOD PARAM` with the same input flags, so that each
 /// method's memory is measured in a process of its own; parse the line it prints.
 inline Measure runChild(const std::vector<std::string>& input_args, const std::string& method, double param,
@@ -76,15 +90,7 @@ inline Measure runChild(const std::vector<std::string>& input_args, const std::s
     cmd << " '" << a << "'";
   cmd.precision(17);
   cmd << " --child " << method << " " << param << extra;
-  FILE* pipe = ::popen(cmd.str().c_str(), "r");
-  if (!pipe)
-    throw std::runtime_error("cannot start " + cmd.str());
-  Measure m;
-  const int got = std::fscanf(pipe, "%zu %lf %lf", &m.size, &m.seconds, &m.peak_extra_mib);
-  const int status = ::pclose(pipe);
-  if (got != 3 || status != 0)
-    throw std::runtime_error("the child run failed: " + cmd.str());
-  return m;
+  return runMeasured(cmd.str());
 }
 
 /// The best of `repeat` runs in fresh processes (the least time; the largest peak memory): this

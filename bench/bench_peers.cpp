@@ -250,17 +250,8 @@ Measure runPython(const std::string& python, const std::string& script, const st
 {
   if (python.empty() || script.empty())
     throw std::runtime_error("no --python and --py-peers given");
-  const std::string cmd = "'" + python + "' '" + script + "' " + method + " '" + raw + "' " + std::to_string(target) +
-                          " '" + out_file + "'";
-  FILE* pipe = ::popen(cmd.c_str(), "r");
-  if (!pipe)
-    throw std::runtime_error("cannot start " + cmd);
-  Measure m;
-  const int got = std::fscanf(pipe, "%zu %lf %lf", &m.size, &m.seconds, &m.peak_extra_mib);
-  const int status = ::pclose(pipe);
-  if (got != 3 || status != 0)
-    throw std::runtime_error("the Python run failed: " + cmd);
-  return m;
+  return runMeasured("'" + python + "' '" + script + "' " + method + " '" + raw + "' " + std::to_string(target) +
+                     " '" + out_file + "'");
 }
 }  // namespace
 

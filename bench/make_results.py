@@ -274,7 +274,7 @@ def main():
              "",
              "Regenerate everything (tables, verdicts, plots) with `bash bench/run_peers.sh` (Release build;",
              "bench/bench_peers.cpp, bench/py_peers.py, bench/make_results.py; the Python samplers pinned in",
-             "bench/requirements.txt). Every shared input (`../shared/data`, 20 scans) at 10%, 3% and 1% kept.",
+             "bench/requirements.txt). Every shared input (the 20 scans of the directory `PCL_ECS_SHARED_DATA_DIR` names) at 10%, 3% and 1% kept.",
              "Every method runs at the same output size: each peer's own parameter (leaf size, radius, cell",
              "size, cluster size) is searched until its size is within 1% of the target; the count-based ones",
              "(RandomSample, NormalSpaceSampling, FarthestPointSampling, WLOP, the Python samplers) are given",
