@@ -4,6 +4,12 @@
 // time. The Delaunay triangulation alone is timed in the same run (Cocone's target: at most 3×).
 //
 //   bench_surface SHARED_DATA_DIR OUT.json [--only NAME]
+//   bench_surface SHARED_DATA_DIR OUT.json --closed [--only NAME] [--quick]
+//
+// --closed: the shared closed shapes (five organic, five CAD parts) simplified to 10% and 3%,
+// meshed by every method: boundary edges as a share of the edges, Euler characteristic against the
+// reference mesh's, distance to the reference and time, each against Advancing Front's (the bar
+// of docs/SURFACE.md). --quick leaves GreedyProjection and Poisson out.
 #include "mesh_sampler.h"
 
 #include <pcl_ecs/io/cloud_convert.h>
@@ -44,6 +50,7 @@ struct Input
   std::string name, reference;  // reference: a mesh file, or empty
   bool one_sided = false;       // the cloud sees only part of the reference (a single range view)
   std::vector<Eigen::Vector3d> points;
+  std::vector<double> spacing;  // per point, the local sampling size the simplifier reports (or empty)
 };
 
 struct MethodResult
@@ -87,16 +94,33 @@ std::vector<Eigen::Vector3d> fromCloud(const pcl::PointCloud<pcl::PointXYZ>& c)
   return v;
 }
 
-std::vector<Eigen::Vector3d> simplified(const std::string& pcd)
+/// Per output point, the local sampling size: its ball's radius, or for a feature point the
+/// spacing the feature thinning kept (the neighbourhood radius when none).
+std::vector<double> outputSpacing(const Result& r)
+{
+  const double feature = std::max(r.summary.feature_spacing, 1.0) * r.summary.neighborhood_radius;
+  std::vector<double> s(r.labels.size(), feature);
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if (r.ball_of_output[i] >= 0)
+      s[i] = std::max(r.balls[static_cast<std::size_t>(r.ball_of_output[i])].radius, r.summary.neighborhood_radius);
+  return s;
+}
+
+/// The defaults, or a target share of the input's points; with the output's local sampling size.
+Input simplified(std::string name, std::string reference, bool one_sided, const std::string& pcd, double ratio = 0)
 {
   auto cloud = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
   if (pcl::io::loadPCDFile(pcd, *cloud) < 0)
     throw std::runtime_error(pcd + ": cannot read");
   FeatureAwareCoverSimplify<pcl::PointXYZ> f;
   f.setInputCloud(cloud);
+  if (ratio > 0)
+    f.setTargetSize(static_cast<std::size_t>(std::lround(ratio * static_cast<double>(cloud->size()))));
   pcl::PointCloud<pcl::PointXYZ> out;
   f.filter(out);
-  return fromCloud(out);
+  Input in{std::move(name), std::move(reference), one_sided, fromCloud(out), {}};
+  in.spacing = outputSpacing(f.getResult());
+  return in;
 }
 
 /// Normals by PCA of 20 neighbours, oriented away from the centroid (the inputs are closed-ish
@@ -258,6 +282,9 @@ nlohmann::json measure(const Input& in, const MethodResult& r, const eval::Trian
                       {"nonmanifold_edges", topo.nonmanifold_edges},
                       {"nonmanifold_vertices", topo.nonmanifold_vertices},
                       {"boundary_loops", topo.boundary_loops},
+                      {"edges", topo.edges},
+                      {"boundary_edges", topo.boundary_edges},
+                      {"euler", topo.euler_characteristic},
                       {"components", topo.components},
                       {"oriented", topo.consistently_oriented},
                       {"details", r.extra}};
@@ -277,6 +304,95 @@ nlohmann::json measure(const Input& in, const MethodResult& r, const eval::Trian
   }
   return j;
 }
+
+template <typename Run>
+MethodResult leastOf(int repeats, Run run)
+{
+  MethodResult best = run();
+  for (int rep = 1; rep < repeats; ++rep)
+  {
+    MethodResult r = run();
+    if (r.seconds < best.seconds)
+      best = std::move(r);
+  }
+  return best;
+}
+
+/// The closed shapes at 10% and 3% (see the header): one table row per method, the bar per input.
+int runClosed(const std::string& data, const std::string& out_path, const std::string& only, bool quick)
+{
+  const std::vector<std::string> shapes = {"bunny",  "elephant", "fertility", "spot",  "camelhead",
+                                           "pinion", "turbine",  "joint",     "spool", "part"};
+  nlohmann::json all = nlohmann::json::array();
+  std::printf("| input | kept | points | method | time s | ÷ AF | boundary edges | χ (reference) | components | "
+              "non-manifold edges | mean dist (L) | ÷ AF | Hausdorff (L) |\n");
+  std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+  std::size_t rows = 0, met[5] = {0, 0, 0, 0, 0};
+  for (const std::string& shape : shapes)
+  {
+    if (!only.empty() && shape.find(only) == std::string::npos)
+      continue;
+    const std::string pcd = data + "/" + (shape == "bunny" ? std::string("bunny.pcd") : shape + "_scan.pcd");
+    const std::string mesh = data + "/" + shape + "_mesh.ply";
+    const eval::TriangleMesh ref = loadReference(mesh);
+    std::vector<Triangle> ref_tris;
+    for (const auto& t : ref.triangles)
+      ref_tris.push_back({static_cast<std::uint32_t>(t[0]), static_cast<std::uint32_t>(t[1]), static_cast<std::uint32_t>(t[2])});
+    const auto ref_topo = surface::analyzeTopology(ref.vertices.size(), ref_tris);
+    const bool ref_closed = ref_topo.boundary_edges == 0;
+    for (const double ratio : {0.1, 0.03})
+    {
+      const Input in = simplified(shape, mesh, false, pcd, ratio);
+      nlohmann::json entry = {{"input", shape},
+                              {"kept", ratio},
+                              {"points", in.points.size()},
+                              {"reference_euler", ref_topo.euler_characteristic},
+                              {"reference_closed", ref_closed},
+                              {"methods", nlohmann::json::array()}};
+      std::vector<MethodResult> runs;
+      runs.push_back(leastOf(kRepeats, [&] { return runCocone(in); }));
+      runs.push_back(leastOf(kRepeats, [&] { return runAfsr(in); }));
+      if (!quick)
+      {
+        runs.push_back(runGp3(in));
+        runs.push_back(runPoisson(in));
+      }
+      std::vector<nlohmann::json> js;
+      for (const auto& r : runs)
+        js.push_back(measure(in, r, &ref));
+      const double af_time = js[1]["seconds"].get<double>(), af_mean = js[1].value("to_reference_mean", 0.0);
+      for (std::size_t m = 0; m < runs.size(); ++m)
+      {
+        const auto& j = js[m];
+        const double bshare = 100.0 * j["boundary_edges"].get<double>() / std::max(1.0, j["edges"].get<double>());
+        std::printf("| %s | %.0f%% | %zu | %s | %.3f | %.2f | %.2f%% | %ld (%ld) | %zu | %zu | %.2e | %.2f | %.2e |\n",
+                    shape.c_str(), 100 * ratio, in.points.size(), runs[m].method.c_str(), runs[m].seconds,
+                    runs[m].seconds / af_time, bshare, j["euler"].get<long>(), ref_topo.euler_characteristic,
+                    j["components"].get<std::size_t>(), j["nonmanifold_edges"].get<std::size_t>(),
+                    j.value("to_reference_mean", 0.0), j.value("to_reference_mean", 0.0) / af_mean,
+                    j.value("hausdorff", 0.0));
+        entry["methods"].push_back(j);
+      }
+      const auto& c = js[0];
+      const bool ok[5] = {c["nonmanifold_edges"].get<std::size_t>() == 0 && c["nonmanifold_vertices"].get<std::size_t>() == 0,
+                          c["boundary_edges"].get<double>() <= 0.002 * c["edges"].get<double>(),
+                          !ref_closed || c["euler"].get<long>() == ref_topo.euler_characteristic,
+                          c.value("to_reference_mean", 0.0) <= af_mean,
+                          c["seconds"].get<double>() <= af_time};
+      entry["bar"] = {{"manifold", ok[0]}, {"boundary", ok[1]}, {"euler", ok[2]}, {"distance", ok[3]}, {"time", ok[4]}};
+      ++rows;
+      for (int k = 0; k < 5; ++k)
+        met[k] += ok[k] ? 1 : 0;
+      all.push_back(entry);
+      std::fflush(stdout);
+    }
+  }
+  std::printf("\nCocone meets, of %zu inputs: manifold %zu, boundary edges <= 0.2%% %zu, Euler characteristic "
+              "(closed references) %zu, mean distance <= AF %zu, time <= AF %zu\n",
+              rows, met[0], met[1], met[2], met[3], met[4]);
+  std::ofstream(out_path) << all.dump(2) << "\n";
+  return 0;
+}
 }  // namespace
 
 int main(int argc, char** argv)
@@ -287,20 +403,38 @@ int main(int argc, char** argv)
     return 2;
   }
   const std::string data = argv[1], out_path = argv[2];
-  const std::string only = argc > 4 && std::string(argv[3]) == "--only" ? argv[4] : "";
+  std::string only;
+  bool closed = false, quick = false;
+  for (int i = 3; i < argc; ++i)
+  {
+    const std::string a = argv[i];
+    if (a == "--only" && i + 1 < argc)
+      only = argv[++i];
+    else if (a == "--closed")
+      closed = true;
+    else if (a == "--quick")
+      quick = true;
+    else
+    {
+      std::fprintf(stderr, "bench_surface: unknown argument %s\n", a.c_str());
+      return 2;
+    }
+  }
+  if (closed)
+    return runClosed(data, out_path, only, quick);
   std::vector<std::function<Input()>> makers = {
-      [&] { return Input{"bunny, simplified (defaults)", data + "/bunny_mesh.ply", false, simplified(data + "/bunny.pcd")}; },
-      [&] { return Input{"fandisk, simplified (defaults)", data + "/fandisk_mesh.ply", false, simplified(data + "/fandisk_scan.pcd")}; },
-      [&] { return Input{"bun000 range view, simplified", data + "/bunny_mesh.ply", true, simplified(data + "/bun000_rangescan.pcd")}; },
+      [&] { return simplified("bunny, simplified (defaults)", data + "/bunny_mesh.ply", false, data + "/bunny.pcd"); },
+      [&] { return simplified("fandisk, simplified (defaults)", data + "/fandisk_mesh.ply", false, data + "/fandisk_scan.pcd"); },
+      [&] { return simplified("bun000 range view, simplified", data + "/bunny_mesh.ply", true, data + "/bun000_rangescan.pcd"); },
       [&] {
         const auto t = pcl_ecs_bench::loadTriangles(data + "/bunny_mesh.ply");
         return Input{"bunny mesh, 100k samples", data + "/bunny_mesh.ply", false,
-                     fromCloud(*pcl_ecs_bench::sampleTriangles(t, 100000, 0.0, 7))};
+                     fromCloud(*pcl_ecs_bench::sampleTriangles(t, 100000, 0.0, 7)), {}};
       },
       [&] {
         pcl::PointCloud<pcl::PointXYZ> c;
         pcl::io::loadPCDFile(data + "/fandisk_scan.pcd", c);
-        return Input{"fandisk scan, 120k", data + "/fandisk_mesh.ply", false, fromCloud(c)};
+        return Input{"fandisk scan, 120k", data + "/fandisk_mesh.ply", false, fromCloud(c), {}};
       }};
   nlohmann::json all = nlohmann::json::array();
   for (const auto& make : makers)

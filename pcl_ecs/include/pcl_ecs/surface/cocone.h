@@ -62,10 +62,13 @@ struct CoconeParameters
    * spans a gap in the sampling and is
    * refused (the gap stays a hole). 0 disables the guard. */
   double max_edge_ratio = 5.0;
-  /** Boundary loops of at most this many edges are closed by ear clipping after extraction (the
-   * places where the walk met a sliver from two sides, or one sample short); 0 disables it. Real
-   * openings are much longer than this. */
-  std::size_t fill_hole_edges = 8;
+  /** Boundary loops of at most this many edges are closed by ear clipping after extraction, when
+   * every chord the clipping needs stays within the gap guard (max_edge_ratio × the local
+   * spacing): the places where the walk met a sliver from two sides, slits along sharp edges and
+   * spots a few samples short. An opening wider than the guard (a scan's border, a cut) stays
+   * open whatever its length; the bound only caps the work (quadratic in a loop's length).
+   * 0 disables it. */
+  std::size_t fill_hole_edges = 2000;
   /** Close the surface into a watertight one for closed objects: after the steps above, every
    * remaining boundary loop, whatever its size, is sealed by ear clipping (shortest chord first,
    * never an edge the mesh already has). An open surface gets closed too. */
