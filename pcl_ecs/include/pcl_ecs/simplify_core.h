@@ -26,14 +26,21 @@ struct CoreOutput
   std::vector<double> weights;          ///< eq. 1
   std::vector<double> measure;          ///< eq. 3
   std::vector<std::uint8_t> is_feature; ///< eq. 4
-  /// target size only (stages/feature_thinning.h): for a feature point, the kept feature point
-  /// standing for it (itself when kept); empty when every feature point is kept
+  /// with feature thinning (a target size, or Parameters::feature_spacing; stages/feature_thinning.h):
+  /// for a feature point, the kept feature point standing for it (itself when kept); empty when
+  /// every feature point is kept
   std::vector<std::int64_t> feature_kept_by;
   std::vector<double> density;          ///< eq. 5
   std::vector<double> curvature;        ///< eq. 11
   CoverOutput cover;                    ///< steps 2-7
   Summary summary;                      ///< counts, δ, means, T_err used, timings
   std::string error;                    ///< why the run failed (empty on success)
+
+  /// The feature point whose output stands for feature point i (i itself unless thinned out).
+  std::size_t keptFeature(std::size_t i) const
+  {
+    return feature_kept_by.empty() ? i : static_cast<std::size_t>(feature_kept_by[i]);
+  }
 };
 
 /** \brief Run the method on `cloud` (finite points, local frame).

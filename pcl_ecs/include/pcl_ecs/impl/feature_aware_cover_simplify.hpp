@@ -148,12 +148,9 @@ void assembleOutput(const pcl::PointCloud<PointT>& input, const LocalFrame<Point
   };
   std::vector<std::size_t> feature_locals;
   feature_locals.reserve(n_features);
-  // A feature point the target size thinned out (core.feature_kept_by) is stood for by a kept one.
-  auto keptFeature = [&](std::size_t i) {
-    return core.feature_kept_by.empty() ? i : static_cast<std::size_t>(core.feature_kept_by[i]);
-  };
+  // A feature point the thinning left out (core.feature_kept_by) is stood for by a kept one.
   for (std::size_t i = 0; i < used.size(); ++i)
-    if (core.is_feature[i] && keptFeature(i) == i)
+    if (core.is_feature[i] && core.keptFeature(i) == i)
       feature_locals.push_back(i);
   std::sort(feature_locals.begin(), feature_locals.end(),
             [&](std::size_t a, std::size_t b) { return used[a] < used[b]; });  // input order
@@ -196,7 +193,7 @@ void assembleOutput(const pcl::PointCloud<PointT>& input, const LocalFrame<Point
   for (std::size_t i = 0; i < used.size(); ++i)
   {
     const std::int64_t out_idx =
-        core.is_feature[i] ? local_to_output[keptFeature(i)]
+        core.is_feature[i] ? local_to_output[core.keptFeature(i)]
                            : static_cast<std::int64_t>(result.balls[static_cast<std::size_t>(core.cover.owner[i])].output_index);
     result.input_to_output[static_cast<std::size_t>(used[i])] = out_idx;
   }
