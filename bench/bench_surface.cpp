@@ -50,7 +50,6 @@ struct Input
   std::string name, reference;  // reference: a mesh file, or empty
   bool one_sided = false;       // the cloud sees only part of the reference (a single range view)
   std::vector<Eigen::Vector3d> points;
-  std::vector<double> spacing;  // per point, the local sampling size the simplifier reports (or empty)
 };
 
 struct MethodResult
@@ -94,19 +93,7 @@ std::vector<Eigen::Vector3d> fromCloud(const pcl::PointCloud<pcl::PointXYZ>& c)
   return v;
 }
 
-/// Per output point, the local sampling size: its ball's radius, or for a feature point the
-/// spacing the feature thinning kept (the neighbourhood radius when none).
-std::vector<double> outputSpacing(const Result& r)
-{
-  const double feature = std::max(r.summary.feature_spacing, 1.0) * r.summary.neighborhood_radius;
-  std::vector<double> s(r.labels.size(), feature);
-  for (std::size_t i = 0; i < s.size(); ++i)
-    if (r.ball_of_output[i] >= 0)
-      s[i] = std::max(r.balls[static_cast<std::size_t>(r.ball_of_output[i])].radius, r.summary.neighborhood_radius);
-  return s;
-}
-
-/// The defaults, or a target share of the input's points; with the output's local sampling size.
+/// The defaults, or a target share of the input's points.
 Input simplified(std::string name, std::string reference, bool one_sided, const std::string& pcd, double ratio = 0)
 {
   auto cloud = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
@@ -118,9 +105,7 @@ Input simplified(std::string name, std::string reference, bool one_sided, const 
     f.setTargetSize(static_cast<std::size_t>(std::lround(ratio * static_cast<double>(cloud->size()))));
   pcl::PointCloud<pcl::PointXYZ> out;
   f.filter(out);
-  Input in{std::move(name), std::move(reference), one_sided, fromCloud(out), {}};
-  in.spacing = outputSpacing(f.getResult());
-  return in;
+  return Input{std::move(name), std::move(reference), one_sided, fromCloud(out)};
 }
 
 /// Normals by PCA of 20 neighbours, oriented away from the centroid (the inputs are closed-ish
@@ -430,12 +415,12 @@ int main(int argc, char** argv)
       [&] {
         const auto t = pcl_ecs_bench::loadTriangles(data + "/bunny_mesh.ply");
         return Input{"bunny mesh, 100k samples", data + "/bunny_mesh.ply", false,
-                     fromCloud(*pcl_ecs_bench::sampleTriangles(t, 100000, 0.0, 7)), {}};
+                     fromCloud(*pcl_ecs_bench::sampleTriangles(t, 100000, 0.0, 7))};
       },
       [&] {
         pcl::PointCloud<pcl::PointXYZ> c;
         pcl::io::loadPCDFile(data + "/fandisk_scan.pcd", c);
-        return Input{"fandisk scan, 120k", data + "/fandisk_mesh.ply", false, fromCloud(c), {}};
+        return Input{"fandisk scan, 120k", data + "/fandisk_mesh.ply", false, fromCloud(c)};
       }};
   nlohmann::json all = nlohmann::json::array();
   for (const auto& make : makers)
