@@ -7,7 +7,8 @@ For each input and kept ratio:
   pcd_simplify --target-size N              the same size given as a count
   pcd_simplify --terr T --radius-cap C --max-gap G --feature-spacing F
                                             the plain run at the settings the target run settled
-                                            on: the same output, one cover
+                                            on: the same output, one cover (less the points a
+                                            top-up added: counts.size_points, at most 2%)
   pcd_simplify --stream (the same flags but F: every feature point kept)
                                             out of core
   PCL VoxelGrid, CGAL hierarchy_simplify_point_set   calibrated to the target run's size
@@ -127,7 +128,8 @@ def main():
             # keeps every feature point, so its output is larger where the target thinned them).
             thinning = ["--feature-spacing", repr(p["feature-spacing-used"])] if p.get("feature-spacing-used") else []
             row = {"input": name, "points": c["finite_points"], "ratio": ratio, "target": target, "size": size,
-                   "cover_passes": c["cover_passes"], "target_iterations": c["target_iterations"]}
+                   "cover_passes": c["cover_passes"], "target_iterations": c["target_iterations"],
+                   "size_points": c.get("size_points", 0)}
             row["target_ratio_s"] = least_wall([simplify, path, out, "--target-ratio", str(ratio), "-q"], args.repeat)
             row["target_size_s"] = least_wall([simplify, path, out, "--target-size", str(target), "-q"], args.repeat)
             row["terr_s"] = least_wall([simplify, path, out] + plain + thinning + ["-q"], args.repeat)

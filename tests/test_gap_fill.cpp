@@ -162,3 +162,66 @@ TEST(GapFill, FarFromAndCloseGapsOnPlainPoints)
   }
 }
 
+
+TEST(GapFill, FillToCountAddsTheFarthestPointEachTime)
+{
+  // Oracle: the greedy farthest-point insertion by brute force (each step, the covered point
+  // farthest from every output point so far; ties to the lower index). Large balls on a plane
+  // with half of it feature points, so that both kinds of output count.
+  auto cloud = randomPlane(2500, 1.0, 11);
+  std::vector<std::uint8_t> feature(cloud->size(), 0);
+  for (std::size_t i = 0; i < cloud->size(); ++i)
+    feature[i] = (*cloud)[i].x < -0.6f ? 1 : 0;
+  pcl_ecs::Parameters p;
+  p.radius_cap_factor = 8.0;
+  std::vector<Eigen::Vector3d> reps[2];
+  for (int k = 0; k < 2; ++k)
+  {
+    p.threads = k == 0 ? 1 : 4;
+    CoverRun run(cloud, p, 0.2, feature);
+    const pcl_ecs::CoverInput in = run.input();
+    pcl_ecs::CoverOutput expected = run.out;
+    const std::size_t before = run.out.balls.size();
+    const std::size_t count = 60;
+    ASSERT_EQ(pcl_ecs::fillToCount(in, p, 0.2, count, run.out), count);
+    ASSERT_EQ(run.out.balls.size(), before + count);
+    for (std::size_t step = 0; step < count; ++step)
+    {
+      double far = -1.0;
+      std::size_t pick = 0;
+      for (std::size_t i = 0; i < cloud->size(); ++i)
+      {
+        if (expected.owner[i] < 0)
+          continue;
+        const double d = distanceToOutput(*cloud, run.feature, expected, (*cloud)[i].getVector3fMap().cast<double>());
+        if (d > far)
+        {
+          far = d;
+          pick = i;
+        }
+      }
+      const auto& added = run.out.balls[before + step];
+      EXPECT_EQ(static_cast<std::size_t>(added.centre), pick) << "step " << step;
+      EXPECT_EQ(added.radius, 0.0);
+      EXPECT_EQ(run.out.owner[pick], static_cast<int>(before + step));
+      pcl_ecs::addPointBall(in, p, 0.2, pick, expected);
+    }
+    std::size_t replaced = 0;
+    for (const auto& b : run.out.balls)
+      replaced += b.replaced;
+    std::size_t covered = 0;
+    for (const int o : run.out.owner)
+      covered += o >= 0 ? 1 : 0;
+    EXPECT_EQ(replaced, covered);
+    for (const auto& b : run.out.balls)
+      reps[k].push_back(b.representative);
+    // Asking for more points than there are covered points makes every one of them an output
+    // point, then stops.
+    EXPECT_LE(pcl_ecs::fillToCount(in, p, 0.2, covered, run.out), covered);
+    for (std::size_t i = 0; i < cloud->size(); ++i)
+      if (run.out.owner[i] >= 0)
+        EXPECT_EQ(run.out.balls[static_cast<std::size_t>(run.out.owner[i])].representative,
+                  (*cloud)[i].getVector3fMap().cast<double>()) << "point " << i << " is not an output point";
+  }
+  EXPECT_EQ(reps[0], reps[1]) << "the thread count changed the result";
+}

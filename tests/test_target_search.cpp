@@ -7,6 +7,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -38,12 +39,21 @@ public:
   {
     return predict ? predict(terr) : std::numeric_limits<double>::quiet_NaN();
   }
+  std::size_t topUp(std::size_t points) override
+  {
+    if (!tops_up)
+      return 0;
+    topped.push_back({last_index_, points});
+    return points;
+  }
   bool keepsCover(double terr, double) const override
   {
     return std::find(kept_terrs.begin(), kept_terrs.end(), terr) != kept_terrs.end();
   }
   std::function<double(double)> predict;  ///< none: the counter cannot predict
   std::vector<double> kept_terrs;         ///< T whose trials count as cheap
+  bool tops_up = false;                   ///< topUp adds what it is asked for (else nothing)
+  std::vector<std::pair<std::size_t, std::size_t>> topped;  ///< (trial, points) of each topUp
   struct Trial
   {
     double terr, cap, gap;
@@ -226,4 +236,71 @@ TEST(TargetSearch, TheSameCountsGiveTheSameTrials)
   for (std::size_t i = 0; i < a.trials.size(); ++i)
     EXPECT_EQ(a.trials[i].terr, b.trials[i].terr);
   EXPECT_EQ(ra.terr, rb.terr);
+}
+
+TEST(TargetSearch, ATrialShortByAtMostTheBandIsToppedUpToTheExactSize)
+{
+  // balls = 50 T^-0.5 and an exact prediction: with a 2% band the search aims 1% short, lands
+  // there in one predicted step, and the counter adds the missing points: exactly the target.
+  auto law = [](double t, double, double) { return powerLaw(t, 50.0, 0.5); };
+  for (const double target : {1000.0, 5000.0})
+  {
+    FormulaCounter counter(law);
+    counter.predict = [](double t) { return 50.0 * std::pow(t, -0.5); };
+    counter.tops_up = true;
+    TargetSearchSetup s = setupFor(target, 120);
+    s.top_up = 0.02;
+    const TargetSearchResult r = pcl_ecs::searchTargetSize(s, counter);
+    EXPECT_TRUE(r.reached);
+    EXPECT_EQ(r.output_points, static_cast<std::size_t>(target)) << target;
+    ASSERT_EQ(counter.topped.size(), 1u);
+    EXPECT_EQ(counter.topped[0].first, counter.kept_index) << "the topped-up trial is the one kept";
+    EXPECT_EQ(r.top_up_points, counter.topped[0].second);
+    EXPECT_EQ(counter.kept.balls + 120 + r.top_up_points, r.output_points);
+    EXPECT_GT(r.top_up_points, 0u);
+    EXPECT_LE(static_cast<double>(r.top_up_points), 0.02 * (target - 120.0));
+    // A counter that cannot top up: the same search still ends within 1%, from its aim.
+    FormulaCounter plain(law);
+    plain.predict = counter.predict;
+    const TargetSearchResult rp = pcl_ecs::searchTargetSize(s, plain);
+    EXPECT_TRUE(rp.reached);
+    EXPECT_LE(std::abs(static_cast<double>(rp.output_points) - target), 0.01 * target);
+    EXPECT_EQ(rp.top_up_points, 0u);
+  }
+  // Without a band nothing is topped up.
+  FormulaCounter counter(law);
+  counter.tops_up = true;
+  pcl_ecs::searchTargetSize(setupFor(5000.0, 0), counter);
+  EXPECT_TRUE(counter.topped.empty());
+}
+
+TEST(TargetSearch, ASaturatedCoverAtTheStartIsNotToppedUp)
+{
+  // Every ball at the cap (985 of them) at the starting T: 1.5% short, within the band, but a
+  // smaller T may still add balls where they matter, so the search moves T instead and tops up a
+  // cover the cap does not saturate.
+  auto counts = [](double t, double, double) {
+    TargetTrialCounts c = powerLaw(t, 50.0, 0.5);
+    if (c.balls <= 985)
+    {
+      c.balls = 985;
+      c.below_cap = 0;
+    }
+    return c;
+  };
+  FormulaCounter counter(counts);
+  counter.tops_up = true;
+  TargetSearchSetup s = setupFor(1000.0, 0);
+  s.start_terr = 1e-2;
+  s.top_up = 0.02;
+  const TargetSearchResult r = pcl_ecs::searchTargetSize(s, counter);
+  EXPECT_TRUE(r.reached);
+  ASSERT_FALSE(counter.trials.empty());
+  for (const auto& [trial, points] : counter.topped)
+  {
+    EXPECT_NE(trial, 0u) << "the saturated first cover was topped up";
+    (void)points;
+  }
+  EXPECT_LT(r.terr, 1e-2);
+  EXPECT_GT(counter.kept.below_cap, 0u);
 }

@@ -225,6 +225,7 @@ nlohmann::json runStatsJson(const Summary& s, const Parameters& p, double target
                  {"rough_balls", s.rough_balls},
                  {"merged_points", s.merged_points},
                  {"gap_points", s.gap_points},
+                 {"size_points", s.size_points},
                  {"target_iterations", s.target_iterations},
                  {"cover_passes", s.cover_passes}};
   if (s.target_size > 0)

@@ -63,6 +63,7 @@ struct Summary
   std::size_t centre_fallbacks = 0;  ///< balls whose representative is their centre
   std::size_t rough_balls = 0;       ///< of those, balls too rough for a point of their own (max_roughness)
   std::size_t gap_points = 0;        ///< of the balls, those of radius 0 added to close gaps (gap_fill.h)
+  std::size_t size_points = 0;       ///< of the balls, those of radius 0 added to reach the target size exactly (fillToCount)
   double max_gap = 0;                ///< the gap bound used (input units; 0: off)
   double feature_threshold = 0;      ///< δ of eq. 4 (input units)
   double mean_spacing = 0;           ///< mean of eq. 5 (input units)

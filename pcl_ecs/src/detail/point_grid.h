@@ -50,6 +50,24 @@ public:
     return id;
   }
 
+  /// The squared distance from q to the inserted point nearest it within `r` (<= the side), or
+  /// `none` when no point lies within `r`.
+  double nearestSquared(const Eigen::Vector3d& q, double r, double none) const
+  {
+    double best = r * r;
+    bool found = false;
+    forEachAround(q, [&](const Entry& e) {
+      const double d2 = (e.p - q).squaredNorm();
+      if (d2 <= best)
+      {
+        best = d2;
+        found = true;
+      }
+      return false;
+    });
+    return found ? best : none;
+  }
+
 private:
   struct Entry
   {

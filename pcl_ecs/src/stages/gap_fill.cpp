@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <queue>
+#include <utility>
 
 namespace pcl_ecs
 {
@@ -116,6 +118,73 @@ std::size_t fillGaps(const CoverInput& in, const Parameters& params, double erro
   for (const std::size_t c : kept)
     addPointBall(in, params, error_threshold, index[c], out);
   return kept.size();
+}
+
+std::size_t fillToCount(const CoverInput& in, const Parameters& params, double error_threshold, std::size_t count,
+                        CoverOutput& out)
+{
+  if (count == 0)
+    return 0;
+  auto position = [&](std::size_t i) { return Eigen::Vector3d(in.cloud[i].getVector3fMap().cast<double>()); };
+  // Every covered point lies within the distance to its own representative of an output point:
+  // the largest of those is the grid's side, so a query within it finds the nearest output point.
+  std::vector<std::size_t> covered;
+  double side2 = 0.0;
+  for (std::size_t i = 0; i < in.cloud.size(); ++i)
+  {
+    const int o = out.owner[i];
+    if (o < 0)
+      continue;
+    const double d2 = (position(i) - out.balls[static_cast<std::size_t>(o)].representative).squaredNorm();
+    if (d2 > 0.0)
+      covered.push_back(i);
+    side2 = std::max(side2, d2);
+  }
+  if (covered.empty())
+    return 0;
+  const double side = std::sqrt(side2);
+  // Each point's distance to the output (in parallel: the grid is only read).
+  using Entry = std::pair<double, std::size_t>;  // squared distance, then the lower index first
+  std::vector<Entry> entries(covered.size());
+  {
+    PointGrid outputs(side);
+    for (const Eigen::Vector3d& p : outputPositions(in, out))
+      outputs.insert(p);
+    const auto n = static_cast<std::ptrdiff_t>(covered.size());
+#pragma omp parallel for schedule(dynamic, 4096) num_threads(std::max(1, resolveThreads(params.threads)))
+    for (std::ptrdiff_t c = 0; c < n; ++c)
+    {
+      const std::size_t i = covered[static_cast<std::size_t>(c)];
+      entries[static_cast<std::size_t>(c)] = {outputs.nearestSquared(position(i), side, side2), i};
+    }
+  }
+  // Lazy greedy farthest-point insertion: a stored distance only overstates the current one (the
+  // points added since can only be nearer), so the point at the top of the queue is measured
+  // against the added points and taken when it still is at least the next one's stored distance.
+  auto before = [](const Entry& a, const Entry& b) { return a.first < b.first || (a.first == b.first && a.second > b.second); };
+  entries.erase(std::remove_if(entries.begin(), entries.end(), [](const Entry& e) { return !(e.first > 0.0); }),
+                entries.end());
+  std::priority_queue<Entry, std::vector<Entry>, decltype(before)> queue(before, std::move(entries));
+  PointGrid added_grid(side);
+  std::size_t added = 0;
+  while (added < count && !queue.empty())
+  {
+    const auto [stored, i] = queue.top();
+    queue.pop();
+    const Eigen::Vector3d p = position(i);
+    const double d2 = std::min(stored, added_grid.nearestSquared(p, side, stored));
+    if (!(d2 > 0.0))
+      continue;  // an added point sits on it
+    if (d2 < stored && !queue.empty() && before(Entry{d2, i}, queue.top()))
+    {
+      queue.emplace(d2, i);
+      continue;
+    }
+    addPointBall(in, params, error_threshold, i, out);
+    added_grid.insert(p);
+    ++added;
+  }
+  return added;
 }
 
 }  // namespace pcl_ecs

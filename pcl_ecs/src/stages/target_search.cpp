@@ -20,7 +20,8 @@ class Search
 public:
   Search(const TargetSearchSetup& setup, TargetCounter& counter)
     : setup_(setup), counter_(counter), target_(setup.target),
-      wanted_(setup.target - static_cast<double>(setup.fixed_points)), tol_(0.01 * setup.target),
+      full_(setup.target - static_cast<double>(setup.fixed_points)),
+      wanted_(full_ * (1.0 - 0.5 * std::max(0.0, std::min(0.5, setup.top_up)))), tol_(0.01 * setup.target),
       cap_(setup.cap_factor), gap_factor_(setup.gap_ratio * setup.cap_factor)
   {
     r_.cap_factor = cap_;
@@ -40,7 +41,9 @@ private:
 
   const TargetSearchSetup& setup_;
   TargetCounter& counter_;
-  const double target_, wanted_, tol_;  // output points, balls wanted, the 1% tolerance
+  // Output points and balls wanted; the balls the search steers to (wanted less half the top-up
+  // band, so that a trial on either side of it ends the search); the 1% tolerance.
+  const double target_, full_, wanted_, tol_;
   double cap_, gap_factor_;             // the current cap and gap bound
   TargetSearchResult r_;
   double best_distance_ = std::numeric_limits<double>::infinity();
@@ -51,6 +54,7 @@ private:
   std::size_t below_cap_ = 0;
   double last_count_ = 0.0;    // the last trial's count (its T is tried_.back())
   std::vector<double> tried_;  // every T tried, in order
+  std::vector<double> tried_caps_;  // the cap of each
   // How much more the count moved than the counter predicted, measured on the last predicted step
   // (log of the change seen over log of the change predicted; 1 until a step measures it), and the
   // step waiting for its count.
@@ -91,24 +95,39 @@ double Search::attempt(double terr)
   pending_.reset();
   last_count_ = static_cast<double>(balls);
   tried_.push_back(terr);
+  tried_caps_.push_back(cap_);
   ++r_.trials;
   // Nearly saturated (at most 5% of the balls, or the tolerance, below the cap): about the
   // count the cap sets.
-  if (static_cast<double>(below_cap_) < std::max(0.01 * target_, 0.05 * static_cast<double>(balls)))
+  const bool nearly_saturated =
+      static_cast<double>(below_cap_) < std::max(0.01 * target_, 0.05 * static_cast<double>(balls));
+  if (nearly_saturated)
     floor_count_ = std::min(floor_count_, static_cast<double>(balls));
   if (balls < fewest_)
   {
     fewest_ = balls;
     fewest_gaps_ = c.gap_points;
   }
-  const double distance = std::abs(static_cast<double>(setup_.fixed_points + balls) - target_);
+  // Short of the size by at most the top-up band: the counter adds the missing points.
+  std::size_t topped = 0;
+  const double shortfall = std::round(full_) - static_cast<double>(balls);
+  // Not a cover whose balls are nearly all at the cap, unless a smaller T at this cap was tried
+  // before (the cap, not T, sets the size there): from the starting T a smaller one may still
+  // shrink the balls where the surface bends.
+  bool smaller_tried = false;
+  for (std::size_t j = 0; j + 1 < tried_.size(); ++j)
+    smaller_tried = smaller_tried || (tried_[j] < terr && tried_caps_[j] == cap_);
+  if (shortfall >= 1.0 && shortfall <= std::min(0.5, setup_.top_up) * full_ && (!nearly_saturated || smaller_tried))
+    topped = counter_.topUp(static_cast<std::size_t>(shortfall));
+  const double distance = std::abs(static_cast<double>(setup_.fixed_points + balls + topped) - target_);
   if (distance < best_distance_)
   {
     best_distance_ = distance;
     r_.terr = terr;
+    r_.top_up_points = topped;
     r_.gap_points = c.gap_points;
     r_.gap_factor = gap_factor_;
-    r_.output_points = setup_.fixed_points + balls;
+    r_.output_points = setup_.fixed_points + balls + topped;
     counter_.keepLast();
   }
   return static_cast<double>(balls);
@@ -316,7 +335,7 @@ bool Search::search()
   double lo = std::min(std::max(start, lowest), highest);  // T giving too many
   double hi = lo;                                          // T giving too few
   double b_lo = attempt(lo), b_hi = b_lo;
-  if (std::abs(b_lo - wanted_) <= tol_)
+  if (best_distance_ <= tol_)
     return best_distance_ < before;
   if (b_lo > wanted_ && cap_ == saturated_cap_ && lo >= saturated_terr_)
     return best_distance_ < before;

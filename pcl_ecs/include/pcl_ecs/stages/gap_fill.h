@@ -51,4 +51,13 @@ void addPointBall(const CoverInput& in, const Parameters& params, double error_t
 std::size_t fillGaps(const CoverInput& in, const Parameters& params, double error_threshold, double gap,
                      CoverOutput& out);
 
+/** \brief Add `count` radius-0 balls, farthest first: each time the covered point farthest from
+ * every output point (a feature point of `in`, a representative of `out`, a ball added before it)
+ * becomes one (ties: the lower index), as addPointBall does. The target size uses it to reach its
+ * size exactly from a cover a little short of it: the points go where the output leaves the
+ * widest gaps. Deterministic and sequential. Returns the number added (fewer than `count` only
+ * when every covered point is an output point already). */
+std::size_t fillToCount(const CoverInput& in, const Parameters& params, double error_threshold, std::size_t count,
+                        CoverOutput& out);
+
 }  // namespace pcl_ecs

@@ -16,6 +16,10 @@
 //     counter keeps is tried first), else by ×4 (down by the step two trials' power law gives,
 //     when too few); then, inside the bracket, up to two predicted steps and Brent's method on
 //     log((count − floor) / (wanted − floor)) against log T;
+//  A trial short of the wanted balls by at most TargetSearchSetup::top_up of them is finished by
+//  TargetCounter::topUp (the counter adds the missing points) and ends the search, unless nearly
+//  all its balls are at the cap and no smaller T was tried at that cap (a smaller T may still
+//  shrink balls where the surface bends); the steps above steer to the middle of that band.
 //  2. while the size is out of reach (the cap or the gap points, not T_err, set the count): widen
 //     the gap bound (×1.1, several steps at once when two searches show how the gap points fall)
 //     when the gap points alone exceed the excess, else the cap (×1.5, up to the plain cap), and
@@ -56,6 +60,14 @@ public:
     (void)terr;
     return std::numeric_limits<double>::quiet_NaN();
   }
+  /// Adds `points` output points to the last trial (before keepLast is called for it) and returns
+  /// how many it added; 0 (the default) when it cannot. The search asks for it when the last
+  /// trial is short of the size by at most TargetSearchSetup::top_up.
+  virtual std::size_t topUp(std::size_t points)
+  {
+    (void)points;
+    return 0;
+  }
   /// Whether a trial at (`terr`, `cap_factor`) would reuse a cover the counter keeps (a cheap
   /// trial); false by default.
   virtual bool keepsCover(double terr, double cap_factor) const
@@ -75,6 +87,9 @@ struct TargetSearchSetup
   double cap_factor = 5;         ///< the radius cap the target implies (neighbourhood radii)
   double max_cap_factor = 5;     ///< the widest cap the search may reach (the plain radius cap)
   double gap_ratio = 0.6;        ///< the gap bound as a multiple of the cap (0: no gap bound)
+  /// A trial short of the wanted balls by at most this fraction of them (up to 0.5) is finished
+  /// by TargetCounter::topUp, and the search steers to the middle of that band; 0: never.
+  double top_up = 0.0;
 };
 
 /** \brief The best trial. */
@@ -84,6 +99,7 @@ struct TargetSearchResult
   double cap_factor = 0;         ///< the cap of the last search that improved on the one before
   double gap_factor = 0;         ///< its gap bound, in neighbourhood radii
   std::size_t gap_points = 0;    ///< its gap points
+  std::size_t top_up_points = 0; ///< the points TargetCounter::topUp added to it
   std::size_t output_points = 0; ///< fixed points + its balls
   int trials = 0;                ///< count() calls
   bool reached = false;          ///< within 1% of the target
