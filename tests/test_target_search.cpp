@@ -304,3 +304,32 @@ TEST(TargetSearch, ASaturatedCoverAtTheStartIsNotToppedUp)
   EXPECT_LT(r.terr, 1e-2);
   EXPECT_GT(counter.kept.below_cap, 0u);
 }
+
+TEST(TargetSearch, WidensTheCapBySeveralStepsWhenTheSaturatedCountIsFarAboveTheTarget)
+{
+  // Every ball at the cap: 8000 / cap² balls (at the first cap 3% of them just below it: more
+  // than the 1% tolerance, yet too few to remove the excess with a larger T). 600 wanted: at
+  // cap 2 the count is 2000, 3.3 × too many; single ×1.5 steps would stop at cap 4.5 (395, after
+  // 889 at cap 3). The search goes there at once, without a larger T at cap 2 first.
+  auto counts = [](double t, double cap, double) {
+    TargetTrialCounts c = powerLaw(t, 50.0, 0.5);
+    const std::size_t floor = static_cast<std::size_t>(8000.0 / (cap * cap));
+    if (c.balls <= floor)
+    {
+      c.balls = floor;
+      c.below_cap = cap == 2.0 ? floor * 3 / 100 : 0;
+    }
+    return c;
+  };
+  FormulaCounter counter(counts);
+  TargetSearchSetup s = setupFor(600.0, 0);
+  s.start_terr = 0.1;  // saturated from the start
+  const TargetSearchResult r = pcl_ecs::searchTargetSize(s, counter);
+  EXPECT_TRUE(r.reached);
+  EXPECT_DOUBLE_EQ(r.cap_factor, 4.5);
+  ASSERT_GE(counter.trials.size(), 2u);
+  EXPECT_EQ(counter.trials[0].cap, 2.0);
+  EXPECT_DOUBLE_EQ(counter.trials[1].cap, 4.5) << "the second trial is not at the cap single steps reach";
+  for (const auto& t : counter.trials)
+    EXPECT_NE(t.cap, 3.0);
+}

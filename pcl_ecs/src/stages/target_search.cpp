@@ -36,6 +36,7 @@ private:
   bool bracketDown(double& lo, double& hi, double& b_lo, double& b_hi);
   void solve(double lo, double hi, double b_lo, double b_hi);
   double widenGap(bool gaps_bind);
+  double widenCap() const;
   std::optional<double> predictedTerr(double from, double from_count);
   double keptOnTheWay(double from, double to) const;
 
@@ -339,9 +340,14 @@ bool Search::search()
     return best_distance_ < before;
   if (b_lo > wanted_ && cap_ == saturated_cap_ && lo >= saturated_terr_)
     return best_distance_ < before;
-  if (b_lo > wanted_ && static_cast<double>(below_cap_) < tol_)
+  // Saturated: (nearly) every ball at the cap, so a larger T changes little: growing the balls
+  // below the cap to it removes at most about as many balls as there are below it. (Not when the
+  // gap points come near the excess: a wider gap bound may then reach the size at this cap.)
+  if (b_lo > wanted_ && (static_cast<double>(below_cap_) < tol_ ||
+                         (static_cast<double>(below_cap_) < 0.05 * b_lo &&
+                          b_lo - static_cast<double>(below_cap_) > 1.2 * wanted_ &&
+                          static_cast<double>(fewest_gaps_) < 0.75 * (b_lo - wanted_))))
   {
-    // Saturated already: nearly every ball is at the cap, so a larger T changes nothing.
     saturated_cap_ = cap_;
     saturated_terr_ = lo;
     return best_distance_ < before;
@@ -377,6 +383,19 @@ double Search::widenGap(bool gaps_bind)
   return std::pow(1.1, std::min(8.0, std::max(1.0, steps)));
 }
 
+/// The cap widens by steps of 1.5, several at once: as many as a count falling by 2.4 per step
+/// would need to come from the fewest balls of this search down to the wanted count. A saturated
+/// count falls by 1.9-2.3 per step on the shared scans (each ball at the cap covers about cap²), so
+/// single steps would need at least as many: the cap is not past the one they would stop at.
+double Search::widenCap() const
+{
+  if (fewest_ == std::numeric_limits<std::size_t>::max() || !(static_cast<double>(fewest_) > wanted_) ||
+      !(wanted_ > 0.0))
+    return 1.5;
+  const double steps = std::ceil(std::log(static_cast<double>(fewest_) / wanted_) / std::log(2.4));
+  return std::pow(1.5, std::min(8.0, std::max(1.0, steps)));
+}
+
 TargetSearchResult Search::run()
 {
   search();
@@ -393,7 +412,7 @@ TargetSearchResult Search::run()
       gap_factor_ = std::min(cap_, gap_factor_ * widenGap(gaps_bind));
     else if (cap_ < setup_.max_cap_factor)
     {
-      cap_ = std::min(setup_.max_cap_factor, 1.5 * cap_);
+      cap_ = std::min(setup_.max_cap_factor, widenCap() * cap_);
       if (gap_factor_ > 0.0)
         gap_factor_ = std::max(gap_factor_, setup_.gap_ratio * cap_);
     }
