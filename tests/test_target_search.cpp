@@ -77,6 +77,20 @@ TargetTrialCounts powerLaw(double terr, double c, double p)
   return t;
 }
 
+/// The power law above a floor the cap sets: balls >= 8000 / cap² (every ball at the cap, of
+/// which `below_at_floor` of the fraction just below it), whatever T.
+TargetTrialCounts cappedPowerLaw(double terr, double cap, double below_at_floor)
+{
+  TargetTrialCounts c = powerLaw(terr, 50.0, 0.5);
+  const std::size_t floor = static_cast<std::size_t>(8000.0 / (cap * cap));
+  if (c.balls <= floor)
+  {
+    c.balls = floor;
+    c.below_cap = static_cast<std::size_t>(below_at_floor * static_cast<double>(floor));
+  }
+  return c;
+}
+
 TargetSearchSetup setupFor(double target, std::size_t fixed)
 {
   TargetSearchSetup s;
@@ -116,16 +130,7 @@ TEST(TargetSearch, FindsThePowerLawsTErrWithinOnePercentFromAboveAndBelow)
 TEST(TargetSearch, WidensTheCapWhenTheCapSetsTheCountAndSaysWhenItCannotReach)
 {
   // The cap sets a floor: balls >= 8000 / cap^2 (every ball at the cap), whatever T.
-  auto counts = [](double t, double cap, double) {
-    TargetTrialCounts c = powerLaw(t, 50.0, 0.5);
-    const std::size_t floor = static_cast<std::size_t>(8000.0 / (cap * cap));
-    if (c.balls <= floor)
-    {
-      c.balls = floor;
-      c.below_cap = 0;
-    }
-    return c;
-  };
+  auto counts = [](double t, double cap, double) { return cappedPowerLaw(t, cap, 0.0); };
   {
     // 600 balls: below the floor at cap 2 (2000), reachable at cap 4 (500), within the plain cap 5.
     FormulaCounter counter(counts);
@@ -311,16 +316,7 @@ TEST(TargetSearch, WidensTheCapBySeveralStepsWhenTheSaturatedCountIsFarAboveTheT
   // than the 1% tolerance, yet too few to remove the excess with a larger T). 600 wanted: at
   // cap 2 the count is 2000, 3.3 × too many; single ×1.5 steps would stop at cap 4.5 (395, after
   // 889 at cap 3). The search goes there at once, without a larger T at cap 2 first.
-  auto counts = [](double t, double cap, double) {
-    TargetTrialCounts c = powerLaw(t, 50.0, 0.5);
-    const std::size_t floor = static_cast<std::size_t>(8000.0 / (cap * cap));
-    if (c.balls <= floor)
-    {
-      c.balls = floor;
-      c.below_cap = cap == 2.0 ? floor * 3 / 100 : 0;
-    }
-    return c;
-  };
+  auto counts = [](double t, double cap, double) { return cappedPowerLaw(t, cap, cap == 2.0 ? 0.03 : 0.0); };
   FormulaCounter counter(counts);
   TargetSearchSetup s = setupFor(600.0, 0);
   s.start_terr = 0.1;  // saturated from the start
