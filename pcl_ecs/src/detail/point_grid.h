@@ -33,39 +33,14 @@ public:
   bool near(const Eigen::Vector3d& q) const { return near(q, side_); }
 
   /// The id of the inserted point nearest q within `r` (<= the side; ties: the lower id), or −1.
-  std::int64_t nearest(const Eigen::Vector3d& q, double r) const
-  {
-    const double r2 = r * r;
-    double best = r2;
-    std::int64_t id = -1;
-    forEachAround(q, [&](const Entry& e) {
-      const double d2 = (e.p - q).squaredNorm();
-      if (d2 <= r2 && (id < 0 || d2 < best || (d2 == best && e.id < id)))
-      {
-        best = d2;
-        id = e.id;
-      }
-      return false;
-    });
-    return id;
-  }
+  std::int64_t nearest(const Eigen::Vector3d& q, double r) const { return closest(q, r).id; }
 
   /// The squared distance from q to the inserted point nearest it within `r` (<= the side), or
   /// `none` when no point lies within `r`.
   double nearestSquared(const Eigen::Vector3d& q, double r, double none) const
   {
-    double best = r * r;
-    bool found = false;
-    forEachAround(q, [&](const Entry& e) {
-      const double d2 = (e.p - q).squaredNorm();
-      if (d2 <= best)
-      {
-        best = d2;
-        found = true;
-      }
-      return false;
-    });
-    return found ? best : none;
+    const Closest c = closest(q, r);
+    return c.found ? c.d2 : none;
   }
 
 private:
@@ -74,6 +49,25 @@ private:
     Eigen::Vector3d p;
     std::int64_t id;
   };
+
+  struct Closest
+  {
+    double d2;
+    std::int64_t id;
+    bool found;
+  };
+  /// The inserted point nearest q within `r` (ties: the lower id).
+  Closest closest(const Eigen::Vector3d& q, double r) const
+  {
+    Closest c{r * r, -1, false};
+    forEachAround(q, [&](const Entry& e) {
+      const double d2 = (e.p - q).squaredNorm();
+      if (d2 <= c.d2 && (!c.found || d2 < c.d2 || e.id < c.id))
+        c = {d2, e.id, true};
+      return false;
+    });
+    return c;
+  }
 
   /// Every entry in the 27 cells around q's (only they can lie within the side of q), until
   /// `visit` returns true.

@@ -21,7 +21,8 @@ public:
   Search(const TargetSearchSetup& setup, TargetCounter& counter)
     : setup_(setup), counter_(counter), target_(setup.target),
       full_(setup.target - static_cast<double>(setup.fixed_points)),
-      wanted_(full_ * (1.0 - 0.5 * std::max(0.0, std::min(0.5, setup.top_up)))), tol_(0.01 * setup.target),
+      band_(std::max(0.0, std::min(0.5, setup.top_up))), wanted_(full_ * (1.0 - 0.5 * band_)),
+      tol_(0.01 * setup.target),
       cap_(setup.cap_factor), gap_factor_(setup.gap_ratio * setup.cap_factor)
   {
     r_.cap_factor = cap_;
@@ -42,9 +43,10 @@ private:
 
   const TargetSearchSetup& setup_;
   TargetCounter& counter_;
-  // Output points and balls wanted; the balls the search steers to (wanted less half the top-up
-  // band, so that a trial on either side of it ends the search); the 1% tolerance.
-  const double target_, full_, wanted_, tol_;
+  // Output points and balls wanted; the top-up band (a fraction of the balls wanted); the balls
+  // the search steers to (wanted less half the band, so that a trial on either side of it ends
+  // the search); the 1% tolerance.
+  const double target_, full_, band_, wanted_, tol_;
   double cap_, gap_factor_;             // the current cap and gap bound
   TargetSearchResult r_;
   double best_distance_ = std::numeric_limits<double>::infinity();
@@ -55,7 +57,7 @@ private:
   std::size_t below_cap_ = 0;
   double last_count_ = 0.0;    // the last trial's count (its T is tried_.back())
   std::vector<double> tried_;  // every T tried, in order
-  std::vector<double> tried_caps_;  // the cap of each
+  double least_terr_at_cap_ = std::numeric_limits<double>::infinity();  // of the trials at the current cap
   // How much more the count moved than the counter predicted, measured on the last predicted step
   // (log of the change seen over log of the change predicted; 1 until a step measures it), and the
   // step waiting for its count.
@@ -96,7 +98,6 @@ double Search::attempt(double terr)
   pending_.reset();
   last_count_ = static_cast<double>(balls);
   tried_.push_back(terr);
-  tried_caps_.push_back(cap_);
   ++r_.trials;
   // Nearly saturated (at most 5% of the balls, or the tolerance, below the cap): about the
   // count the cap sets.
@@ -115,10 +116,9 @@ double Search::attempt(double terr)
   // Not a cover whose balls are nearly all at the cap, unless a smaller T at this cap was tried
   // before (the cap, not T, sets the size there): from the starting T a smaller one may still
   // shrink the balls where the surface bends.
-  bool smaller_tried = false;
-  for (std::size_t j = 0; j + 1 < tried_.size(); ++j)
-    smaller_tried = smaller_tried || (tried_[j] < terr && tried_caps_[j] == cap_);
-  if (shortfall >= 1.0 && shortfall <= std::min(0.5, setup_.top_up) * full_ && (!nearly_saturated || smaller_tried))
+  const bool smaller_tried = least_terr_at_cap_ < terr;
+  least_terr_at_cap_ = std::min(least_terr_at_cap_, terr);
+  if (shortfall >= 1.0 && shortfall <= band_ * full_ && (!nearly_saturated || smaller_tried))
     topped = counter_.topUp(static_cast<std::size_t>(shortfall));
   const double distance = std::abs(static_cast<double>(setup_.fixed_points + balls + topped) - target_);
   if (distance < best_distance_)
@@ -413,6 +413,7 @@ TargetSearchResult Search::run()
     else if (cap_ < setup_.max_cap_factor)
     {
       cap_ = std::min(setup_.max_cap_factor, widenCap() * cap_);
+      least_terr_at_cap_ = std::numeric_limits<double>::infinity();
       if (gap_factor_ > 0.0)
         gap_factor_ = std::max(gap_factor_, setup_.gap_ratio * cap_);
     }
