@@ -1,12 +1,15 @@
 // point_grid.h (private) — points hashed into cubes of a fixed side, to ask whether one lies
 // within a distance (at most the side) of a query: only the 27 cubes around the query's can hold
-// it, or which is nearest. The gap bound (stages/gap_fill), the deviation bound
-// (stages/surface_deviation) and the feature thinning (stages/feature_thinning) use it.
+// it, or which is nearest. The cells live in an open-addressing table, and a query skips the
+// neighbour cells whose box lies farther than its radius. The gap bound (stages/gap_fill), the
+// deviation bound (stages/surface_deviation) and the feature thinning (stages/feature_thinning)
+// use it.
 #pragma once
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdint>
-#include <unordered_map>
 #include <vector>
 
 #include <Eigen/Core>
@@ -19,14 +22,18 @@ class PointGrid
 public:
   explicit PointGrid(double side) : side_(side), inv_(1.0 / side) {}
 
-  void insert(const Eigen::Vector3d& p, std::int64_t id = -1) { cells_[key(cellOf(p))].push_back({p, id}); }
+  void insert(const Eigen::Vector3d& p, std::int64_t id = -1)
+  {
+    const std::array<std::int64_t, 3> c = cellOf(p);
+    listFor(key(c[0], c[1], c[2])).push_back({p, id});
+  }
 
   /// True when an inserted point lies within `r` (<= the side) of q.
   bool near(const Eigen::Vector3d& q, double r) const
   {
     const double r2 = r * r;
     bool found = false;
-    forEachAround(q, [&](const Entry& e) { return found = (e.p - q).squaredNorm() <= r2; });
+    forEachAround(q, r, [&](const Entry& e) { return found = (e.p - q).squaredNorm() <= r2; });
     return found;
   }
   /// The same within the side.
@@ -60,7 +67,7 @@ private:
   Closest closest(const Eigen::Vector3d& q, double r) const
   {
     Closest c{r * r, -1, false};
-    forEachAround(q, [&](const Entry& e) {
+    forEachAround(q, r, [&](const Entry& e) {
       const double d2 = (e.p - q).squaredNorm();
       if (d2 <= c.d2 && (!c.found || d2 < c.d2 || e.id < c.id))
         c = {d2, e.id, true};
@@ -69,37 +76,121 @@ private:
     return c;
   }
 
-  /// Every entry in the 27 cells around q's (only they can lie within the side of q), until
+  /// Every entry in the cells around q's that can hold a point within `r` (<= the side) of q:
+  /// of the 27 (the query's and its neighbours), those whose box lies within `r` of q, until
   /// `visit` returns true.
   template <typename F>
-  void forEachAround(const Eigen::Vector3d& q, F visit) const
+  void forEachAround(const Eigen::Vector3d& q, double r, F visit) const
   {
-    const Eigen::Vector3d c = cellOf(q);
+    if (slots_.empty())
+      return;
+    const std::array<std::int64_t, 3> c = cellOf(q);
+    // Squared distance from q to the slab of the neighbour below / above along each axis (0 for
+    // its own): a lower bound on the distance to any point in that neighbour.
+    double below[3], above[3];
+    for (int a = 0; a < 3; ++a)
+    {
+      below[a] = std::max(0.0, q[a] - static_cast<double>(c[a]) * side_);
+      above[a] = std::max(0.0, static_cast<double>(c[a] + 1) * side_ - q[a]);
+      below[a] *= below[a];
+      above[a] *= above[a];
+    }
+    const double r2 = r * r;
     for (int dx = -1; dx <= 1; ++dx)
+    {
+      const double gx = dx < 0 ? below[0] : dx > 0 ? above[0] : 0.0;
+      if (gx > r2)
+        continue;
       for (int dy = -1; dy <= 1; ++dy)
+      {
+        const double gy = gx + (dy < 0 ? below[1] : dy > 0 ? above[1] : 0.0);
+        if (gy > r2)
+          continue;
         for (int dz = -1; dz <= 1; ++dz)
         {
-          const auto it = cells_.find(key(c + Eigen::Vector3d(dx, dy, dz)));
-          if (it != cells_.end())
-            for (const Entry& e : it->second)
+          if (gy + (dz < 0 ? below[2] : dz > 0 ? above[2] : 0.0) > r2)
+            continue;
+          if (const std::vector<Entry>* cell = find(key(c[0] + dx, c[1] + dy, c[2] + dz)))
+            for (const Entry& e : *cell)
               if (visit(e))
                 return;
         }
+      }
+    }
   }
 
-  Eigen::Vector3d cellOf(const Eigen::Vector3d& p) const { return (p * inv_).array().floor(); }
-  /// 21 bits of each cell coordinate (clamped before the cast: cells that share a key only share
-  /// a bucket; the distances decide).
-  static std::uint64_t key(const Eigen::Vector3d& cell)
+  std::array<std::int64_t, 3> cellOf(const Eigen::Vector3d& p) const
   {
-    auto u = [](double x) {
-      return static_cast<std::uint64_t>(static_cast<std::int64_t>(std::max(-1e12, std::min(1e12, x)))) & 0x1FFFFFu;
+    auto f = [&](double x) {
+      return static_cast<std::int64_t>(std::max(-1e12, std::min(1e12, std::floor(x * inv_))));
     };
-    return u(cell.x()) | (u(cell.y()) << 21) | (u(cell.z()) << 42);
+    return {f(p.x()), f(p.y()), f(p.z())};
+  }
+  /// 21 bits of each cell coordinate (coordinates clamped to ±1e12 cells: cells that share a key
+  /// only share a list; the distances decide).
+  static std::uint64_t key(std::int64_t x, std::int64_t y, std::int64_t z)
+  {
+    auto u = [](std::int64_t v) { return static_cast<std::uint64_t>(v) & 0x1FFFFFu; };
+    return u(x) | (u(y) << 21) | (u(z) << 42);
+  }
+
+  // Open addressing with linear probing: slot -> (key, index into lists_); at most half full.
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};  // no key has bit 63 set
+  struct Slot
+  {
+    std::uint64_t key;
+    std::uint32_t list;
+  };
+  std::size_t home(std::uint64_t k) const
+  {
+    return static_cast<std::size_t>((k * 0x9E3779B97F4A7C15ull) >> shift_);
+  }
+  const std::vector<Entry>* find(std::uint64_t k) const
+  {
+    const std::size_t mask = slots_.size() - 1;
+    for (std::size_t h = home(k);; h = (h + 1) & mask)
+    {
+      if (slots_[h].key == k)
+        return &lists_[slots_[h].list];
+      if (slots_[h].key == kEmpty)
+        return nullptr;
+    }
+  }
+  std::vector<Entry>& listFor(std::uint64_t k)
+  {
+    if (2 * (lists_.size() + 1) > slots_.size())
+      rehash(std::max<std::size_t>(64, 2 * slots_.size()));
+    const std::size_t mask = slots_.size() - 1;
+    std::size_t h = home(k);
+    for (; slots_[h].key != kEmpty; h = (h + 1) & mask)
+      if (slots_[h].key == k)
+        return lists_[slots_[h].list];
+    slots_[h] = {k, static_cast<std::uint32_t>(lists_.size())};
+    lists_.emplace_back();
+    return lists_.back();
+  }
+  void rehash(std::size_t size)  // size: a power of two
+  {
+    shift_ = 64;
+    for (std::size_t s = size; s > 1; s >>= 1)
+      --shift_;
+    std::vector<Slot> old(size, Slot{kEmpty, 0});
+    old.swap(slots_);
+    const std::size_t mask = size - 1;
+    for (const Slot& s : old)
+      if (s.key != kEmpty)
+      {
+        std::size_t h = home(s.key);
+        while (slots_[h].key != kEmpty)
+          h = (h + 1) & mask;
+        slots_[h] = s;
+      }
   }
 
   double side_, inv_;
-  std::unordered_map<std::uint64_t, std::vector<Entry>> cells_;
+  std::vector<Slot> slots_;               // empty until the first insert
+  std::vector<std::vector<Entry>> lists_; // one per occupied cell
+  int shift_ = 64;
 };
 
 }  // namespace pcl_ecs
