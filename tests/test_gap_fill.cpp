@@ -174,16 +174,18 @@ TEST(GapFill, FillToCountAddsTheFarthestPointEachTime)
     feature[i] = (*cloud)[i].x < -0.6f ? 1 : 0;
   pcl_ecs::Parameters p;
   p.radius_cap_factor = 8.0;
-  std::vector<Eigen::Vector3d> reps[2];
-  for (int k = 0; k < 2; ++k)
+  // Runs: 1 and 4 threads measuring every point up front, and measuring only the 4 × count
+  // largest bounds up front (the rest as they reach the top of the queue).
+  std::vector<Eigen::Vector3d> reps[3];
+  for (int k = 0; k < 3; ++k)
   {
-    p.threads = k == 0 ? 1 : 4;
+    p.threads = k == 1 ? 4 : 1;
     CoverRun run(cloud, p, 0.2, feature);
     const pcl_ecs::CoverInput in = run.input();
     pcl_ecs::CoverOutput expected = run.out;
     const std::size_t before = run.out.balls.size();
     const std::size_t count = 60;
-    ASSERT_EQ(pcl_ecs::fillToCount(in, p, 0.2, count, run.out), count);
+    ASSERT_EQ(pcl_ecs::fillToCount(in, p, 0.2, count, run.out, k == 2 ? 0 : cloud->size()), count);
     ASSERT_EQ(run.out.balls.size(), before + count);
     for (std::size_t step = 0; step < count; ++step)
     {
@@ -224,4 +226,5 @@ TEST(GapFill, FillToCountAddsTheFarthestPointEachTime)
                   (*cloud)[i].getVector3fMap().cast<double>()) << "point " << i << " is not an output point";
   }
   EXPECT_EQ(reps[0], reps[1]) << "the thread count changed the result";
+  EXPECT_EQ(reps[0], reps[2]) << "measuring fewer points up front changed the result";
 }

@@ -121,14 +121,15 @@ std::size_t fillGaps(const CoverInput& in, const Parameters& params, double erro
 }
 
 std::size_t fillToCount(const CoverInput& in, const Parameters& params, double error_threshold, std::size_t count,
-                        CoverOutput& out)
+                        CoverOutput& out, std::size_t measured_first)
 {
   if (count == 0)
     return 0;
   auto position = [&](std::size_t i) { return Eigen::Vector3d(in.cloud[i].getVector3fMap().cast<double>()); };
-  // Every covered point lies within the distance to its own representative of an output point:
-  // the largest of those is the grid's side, so a query within it finds the nearest output point.
-  std::vector<std::size_t> covered;
+  // A covered point's distance to its own representative bounds its distance to the output from
+  // above; the largest of those is the grid's side, so a query within it finds the nearest output.
+  using Entry = std::pair<double, std::size_t>;  // squared distance, then the lower index first
+  std::vector<Entry> entries;
   double side2 = 0.0;
   for (std::size_t i = 0; i < in.cloud.size(); ++i)
   {
@@ -137,33 +138,38 @@ std::size_t fillToCount(const CoverInput& in, const Parameters& params, double e
       continue;
     const double d2 = (position(i) - out.balls[static_cast<std::size_t>(o)].representative).squaredNorm();
     if (d2 > 0.0)
-      covered.push_back(i);
+      entries.emplace_back(d2, i);
     side2 = std::max(side2, d2);
   }
-  if (covered.empty())
+  if (entries.empty())
     return 0;
   const double side = std::sqrt(side2);
-  // Each point's distance to the output (in parallel: the grid is only read).
-  using Entry = std::pair<double, std::size_t>;  // squared distance, then the lower index first
-  std::vector<Entry> entries(covered.size());
+  PointGrid outputs(side);
+  for (const Eigen::Vector3d& p : outputPositions(in, out))
+    outputs.insert(p);
+  auto before = [](const Entry& a, const Entry& b) { return a.first < b.first || (a.first == b.first && a.second > b.second); };
+  // The exact distances of the points with the largest bounds, in parallel (the grid is only
+  // read): the points taken come from among them unless many bounds are loose. The others are
+  // measured when they reach the top of the queue (`measured` says which are exact).
+  std::vector<std::uint8_t> measured(in.cloud.size(), 0);
+  const std::size_t batch = std::min(entries.size(), std::max(4 * count, measured_first));
+  std::nth_element(entries.begin(), entries.begin() + static_cast<std::ptrdiff_t>(batch) - 1, entries.end(),
+                   [&](const Entry& a, const Entry& b) { return before(b, a); });
   {
-    PointGrid outputs(side);
-    for (const Eigen::Vector3d& p : outputPositions(in, out))
-      outputs.insert(p);
-    const auto n = static_cast<std::ptrdiff_t>(covered.size());
+    const auto n = static_cast<std::ptrdiff_t>(batch);
 #pragma omp parallel for schedule(dynamic, 4096) num_threads(std::max(1, resolveThreads(params.threads)))
     for (std::ptrdiff_t c = 0; c < n; ++c)
     {
-      const std::size_t i = covered[static_cast<std::size_t>(c)];
-      entries[static_cast<std::size_t>(c)] = {outputs.nearestSquared(position(i), side, side2), i};
+      Entry& e = entries[static_cast<std::size_t>(c)];
+      e.first = outputs.nearestSquared(position(e.second), std::sqrt(e.first), e.first);
     }
   }
-  // Lazy greedy farthest-point insertion: a stored distance only overstates the current one (the
-  // points added since can only be nearer), so the point at the top of the queue is measured
-  // against the added points and taken when it still is at least the next one's stored distance.
-  auto before = [](const Entry& a, const Entry& b) { return a.first < b.first || (a.first == b.first && a.second > b.second); };
-  entries.erase(std::remove_if(entries.begin(), entries.end(), [](const Entry& e) { return !(e.first > 0.0); }),
-                entries.end());
+  for (std::size_t c = 0; c < batch; ++c)
+    measured[entries[c].second] = 1;
+  // Lazy greedy farthest-point insertion: a stored distance only overstates the current one (it
+  // is a bound, or exact before the points added since, which can only be nearer), so the point
+  // at the top of the queue is measured and taken when it still is at least the next one's
+  // stored distance.
   std::priority_queue<Entry, std::vector<Entry>, decltype(before)> queue(before, std::move(entries));
   PointGrid added_grid(side);
   std::size_t added = 0;
@@ -172,9 +178,15 @@ std::size_t fillToCount(const CoverInput& in, const Parameters& params, double e
     const auto [stored, i] = queue.top();
     queue.pop();
     const Eigen::Vector3d p = position(i);
-    const double d2 = std::min(stored, added_grid.nearestSquared(p, side, stored));
+    double d2 = stored;
+    if (!measured[i])
+    {
+      measured[i] = 1;
+      d2 = outputs.nearestSquared(p, std::sqrt(stored), stored);
+    }
+    d2 = std::min(d2, added_grid.nearestSquared(p, side, d2));
     if (!(d2 > 0.0))
-      continue;  // an added point sits on it
+      continue;  // an output point sits on it
     if (d2 < stored && !queue.empty() && before(Entry{d2, i}, queue.top()))
     {
       queue.emplace(d2, i);

@@ -55,9 +55,13 @@ std::size_t fillGaps(const CoverInput& in, const Parameters& params, double erro
  * every output point (a feature point of `in`, a representative of `out`, a ball added before it)
  * becomes one (ties: the lower index), as addPointBall does. The target size uses it to reach its
  * size exactly from a cover a little short of it: the points go where the output leaves the
- * widest gaps. Deterministic and sequential. Returns the number added (fewer than `count` only
- * when every covered point is an output point already). */
+ * widest gaps. Returns the number added (fewer than `count` only when every covered point is an
+ * output point already).
+ * A point's distance to its own representative bounds its distance to the output: the points with
+ * the `measured_first` (at least 4 × count) largest bounds are measured up front, in parallel, the
+ * others only if they reach the top of the farthest-first queue. The result depends on neither
+ * `measured_first` nor params.threads. */
 std::size_t fillToCount(const CoverInput& in, const Parameters& params, double error_threshold, std::size_t count,
-                        CoverOutput& out);
+                        CoverOutput& out, std::size_t measured_first = 65536);
 
 }  // namespace pcl_ecs
