@@ -15,8 +15,9 @@ For each input and kept ratio:
                                             (bench_throughput --peers-only: the algorithm's time
                                             in a process of its own, input already loaded)
   bucket farthest-point sampling (fpsample) the same size; the sampling call, input loaded
-Every time is the least of --repeat runs (pcl_ecs's four modes run in turn in each round). pcl_ecs times are whole processes (reading the file and
-writing the result included); the peers' are their algorithm alone, which favours them.
+Every time is the least of --repeat runs (pcl_ecs's four modes run in turn in each round). pcl_ecs
+times are whole processes (reading the file and writing the result included); the peers' are their
+algorithm alone, which favours them.
 """
 import argparse
 import json

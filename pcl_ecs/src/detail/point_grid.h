@@ -145,29 +145,31 @@ private:
   {
     return static_cast<std::size_t>((k * 0x9E3779B97F4A7C15ull) >> shift_);
   }
-  const std::vector<Entry>* find(std::uint64_t k) const
+  /// The slot holding key k, or the empty slot where it would go (the table is never full).
+  std::size_t slotOf(std::uint64_t k) const
   {
     const std::size_t mask = slots_.size() - 1;
-    for (std::size_t h = home(k);; h = (h + 1) & mask)
-    {
-      if (slots_[h].key == k)
-        return &lists_[slots_[h].list];
-      if (slots_[h].key == kEmpty)
-        return nullptr;
-    }
+    std::size_t h = home(k);
+    while (slots_[h].key != k && slots_[h].key != kEmpty)
+      h = (h + 1) & mask;
+    return h;
+  }
+  const std::vector<Entry>* find(std::uint64_t k) const
+  {
+    const Slot& s = slots_[slotOf(k)];
+    return s.key == k ? &lists_[s.list] : nullptr;
   }
   std::vector<Entry>& listFor(std::uint64_t k)
   {
     if (2 * (lists_.size() + 1) > slots_.size())
       rehash(std::max<std::size_t>(64, 2 * slots_.size()));
-    const std::size_t mask = slots_.size() - 1;
-    std::size_t h = home(k);
-    for (; slots_[h].key != kEmpty; h = (h + 1) & mask)
-      if (slots_[h].key == k)
-        return lists_[slots_[h].list];
-    slots_[h] = {k, static_cast<std::uint32_t>(lists_.size())};
-    lists_.emplace_back();
-    return lists_.back();
+    Slot& s = slots_[slotOf(k)];
+    if (s.key != k)
+    {
+      s = {k, static_cast<std::uint32_t>(lists_.size())};
+      lists_.emplace_back();
+    }
+    return lists_[s.list];
   }
   void rehash(std::size_t size)  // size: a power of two
   {
@@ -176,15 +178,9 @@ private:
       --shift_;
     std::vector<Slot> old(size, Slot{kEmpty, 0});
     old.swap(slots_);
-    const std::size_t mask = size - 1;
     for (const Slot& s : old)
       if (s.key != kEmpty)
-      {
-        std::size_t h = home(s.key);
-        while (slots_[h].key != kEmpty)
-          h = (h + 1) & mask;
-        slots_[h] = s;
-      }
+        slots_[slotOf(s.key)] = s;
   }
 
   double side_, inv_;
