@@ -33,6 +33,7 @@ HALVES = {
 # Each rule and the flags that switch it back to the paper's (or off).
 RULES = [
     ("representative fit (METHOD.md 4)", ["--no-rep-fit"]),
+    ("representatives relaxed to their cells' centroids (4)", ["--no-relax"]),
     ("rough balls keep their centre (4)", ["--max-roughness", "10"]),
     ("representative moves across the surface only (4)", ["--rep-cutoff", "0.001"]),
     ("representative within 0.5 r (4)", ["--rep-offset", "1"]),

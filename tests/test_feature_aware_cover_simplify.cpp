@@ -702,7 +702,10 @@ TEST(Filter, PointsThatDifferByRoundingAreMerged)
     EXPECT_NEAR(qb.surface_rms, qa.surface_rms, 0.02 * qa.surface_rms) << target;
     EXPECT_NEAR(qb.tangent_rms, qa.tangent_rms, 0.02 * qa.tangent_rms) << target;
     EXPECT_NEAR(qb.coverage_mean, qa.coverage_mean, 0.02 * qa.coverage_mean) << target;
-    EXPECT_NEAR(qb.coverage_max, qa.coverage_max, 0.02 * qa.coverage_max) << target;
+    // The largest gap is one point's distance: the two runs' relaxed representatives (their covers
+    // differ by the rounding) put it at 0.0284 and 0.0295 L on the bunny in the T_err mode (both below
+    // the 0.0311 L of either run unrelaxed).
+    EXPECT_NEAR(qb.coverage_max, qa.coverage_max, 0.05 * qa.coverage_max) << target;
   }
 }
 
@@ -837,15 +840,20 @@ TEST(Filter, TErrInInputUnitsIsTheFractionOfTheDiagonal)
 // A target-size search that lands at most 2% short tops the cover up (fillToCount): the output
 // then holds exactly the target, the added points are counted, and the result does not depend on
 // the thread count. Over a range of sizes on the bunny some runs land there and every run ends
-// within 1%.
+// within 1%. With the relaxation (on by default) the cover the search settled on is relaxed and
+// topped up by what its gap points fell short: more than 2%, but exactly the target again.
 TEST(Filter, TargetSizeToppedUpToExactlyTheTarget)
 {
   auto cloud = loadShared("bunny.pcd");
+  for (const bool relax : {false, true})
+  {
+  SCOPED_TRACE(relax ? "relaxed" : "not relaxed");
   std::size_t topped_runs = 0;
   for (std::size_t target = 300; target <= 3000; target += 300)
   {
     Filter f;
     f.setTargetSize(target);
+    f.setRelaxRepresentatives(relax);
     const Cloud out = run(cloud, f);
     const auto& s = f.getResult().summary;
     EXPECT_NEAR(static_cast<double>(out.size()), static_cast<double>(target), 0.01 * target) << target;
@@ -855,9 +863,11 @@ TEST(Filter, TargetSizeToppedUpToExactlyTheTarget)
       continue;
     ++topped_runs;
     EXPECT_EQ(out.size(), target) << "topped up, yet not exactly the target";
-    EXPECT_LE(static_cast<double>(s.size_points), 0.02 * static_cast<double>(target));
+    if (!relax)
+      EXPECT_LE(static_cast<double>(s.size_points), 0.02 * static_cast<double>(target));
     Filter g;
     g.setTargetSize(target);
+    g.setRelaxRepresentatives(relax);
     g.setNumberOfThreads(1);
     const Cloud one = run(cloud, g);
     ASSERT_EQ(one.size(), out.size());
@@ -865,4 +875,5 @@ TEST(Filter, TargetSizeToppedUpToExactlyTheTarget)
       ASSERT_EQ(one[i].getVector3fMap(), out[i].getVector3fMap()) << target << " point " << i;
   }
   EXPECT_GT(topped_runs, 0u) << "no size exercised the top-up";
+  }
 }

@@ -8,6 +8,8 @@
 #include <pcl_ecs/stream/out_of_core.h>
 
 #include <algorithm>
+#include <array>
+#include <iterator>
 #include <cstdio>
 #include <cmath>
 #include <filesystem>
@@ -246,6 +248,7 @@ TEST_F(OutOfCore, MatchesTheInMemoryFilter)
   };
   std::vector<Run> mem;
   Summary m;
+  pcl::PointCloud<pcl::PointXYZ> in_memory_42;
   for (const std::uint64_t seed : {42u, 1u, 2u})
   {
     params.seed = seed;
@@ -259,7 +262,10 @@ TEST_F(OutOfCore, MatchesTheInMemoryFilter)
     ASSERT_TRUE(eval::evaluateQuality(original, in_memory, nullptr, r.q));
     mem.push_back(r);
     if (seed == 42u)
+    {
       m = filter.getResult().summary;
+      in_memory_42 = in_memory;
+    }
   }
   params.seed = 42;
 
@@ -338,16 +344,32 @@ TEST_F(OutOfCore, MatchesTheInMemoryFilter)
   EXPECT_GT(s.gap_points, 0u);
   const double gap = params.max_gap_factor * params.radius_cap_factor * s.neighborhood_radius;
   EXPECT_LE(qs.coverage_max * s.bbox_diagonal, gap * (1.0 + 1e-5));
-  // With one tile the run is the in-memory one, point for point.
+  // With one tile the run is the in-memory one, point for point, but for the gap bound's rounding:
+  // the out-of-core bound measures distances to the output records as written (floats, world
+  // coordinates), the in-memory one to the representatives in the local frame, so a point within
+  // rounding of the bound may go either way (one point of the 11,806 on this scan).
   opt.max_tile_points = 0;
   opt.memory_limit = 4ull << 30;
   opt.scratch_dir = path("scratch-one");
   const StreamSummary one = simplifyOutOfCore(path("scan.pcd"), path("one.pcd"), params, opt);
   ASSERT_EQ(one.tiles.size(), 1u);
   EXPECT_EQ(one.output_points, mem[0].size);
+  EXPECT_EQ(one.gap_points, m.gap_points);
+  const auto one_cloud = loadXyz(path("one.pcd"));
+  auto sorted = [](const pcl::PointCloud<pcl::PointXYZ>& c) {
+    std::vector<std::array<float, 3>> v;
+    for (const auto& p : c)
+      v.push_back({p.x, p.y, p.z});
+    std::sort(v.begin(), v.end());
+    return v;
+  };
+  const auto a = sorted(one_cloud), b = sorted(in_memory_42);
+  std::vector<std::array<float, 3>> only_streamed;
+  std::set_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(only_streamed));
+  EXPECT_LE(only_streamed.size(), a.size() / 1000) << "of " << a.size() << " points";
   eval::QualityMetrics q1;
-  ASSERT_TRUE(eval::evaluateQuality(original, loadXyz(path("one.pcd")), nullptr, q1));
-  EXPECT_DOUBLE_EQ(q1.surface_rms, mem[0].q.surface_rms);
+  ASSERT_TRUE(eval::evaluateQuality(original, one_cloud, nullptr, q1));
+  EXPECT_NEAR(q1.surface_rms, mem[0].q.surface_rms, 1e-3 * mem[0].q.surface_rms);
 }
 
 TEST_F(OutOfCore, ManyFeaturesTakeTheSearchPathAndKeepTheStatistics)

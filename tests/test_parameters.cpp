@@ -31,6 +31,7 @@ TEST(Parameters, DefaultsAreValidAndDocumented)
   EXPECT_DOUBLE_EQ(p.representative_cutoff, 0.05);
   EXPECT_DOUBLE_EQ(p.max_roughness, 0.2);
   EXPECT_TRUE(p.representative_fit);
+  EXPECT_TRUE(p.relax_representatives);
   EXPECT_EQ(p.feature_spacing, 0.0);
   Parameters off = p;
   off.max_gap_factor = 0.0;  // off is valid
@@ -106,7 +107,7 @@ TEST(Parameters, ResolveThreads)
 TEST(ParameterTable, EveryRowRoundTripsItsTextAndNamesItsFieldWhenOutOfRange)
 {
   const auto& table = pcl_ecs::parameterTable();
-  EXPECT_EQ(table.size(), 22u);
+  EXPECT_EQ(table.size(), 23u);
   std::set<std::string> names, fields;
   const Parameters defaults;
   for (const pcl_ecs::ParameterInfo& info : table)

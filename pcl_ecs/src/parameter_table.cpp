@@ -57,6 +57,11 @@ std::vector<ParameterInfo> makeTable()
        "keep the optimised point's height instead of moving a smooth ball's representative onto the quadratic "
        "fitted to its points (the paper's method)",
        true},
+      {"no-relax", "relax_representatives", "", &P::relax_representatives, "", false, 0, 0, false, false, false,
+       "true or false",
+       "leave each representative where the cover put it instead of moving it, along its fitted surface, "
+       "towards the centre of the points nearest to it (the paper's method)",
+       true},
       {"max-gap", "max_gap_factor", "", &P::max_gap_factor, "G", false, 0, 100, true, false, true,
        "0 (off) or in (0, 100]",
        "no input point farther than G × the radius cap from the output: points left farther become output "

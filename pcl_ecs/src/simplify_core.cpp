@@ -10,6 +10,7 @@
 #include <pcl_ecs/stages/local_density.h>
 #include <pcl_ecs/stages/normals.h>
 #include <pcl_ecs/stages/paraboloid_curvature.h>
+#include <pcl_ecs/stages/representative_relax.h>
 #include <pcl_ecs/stages/surface_deviation.h>
 #include <pcl_ecs/stages/target_search.h>
 
@@ -60,6 +61,7 @@ std::size_t runCover(const CoverInput& in, const Parameters& params, double terr
                      std::size_t& gap_points)
 {
   coverWithBalls(in, params, terr, out);
+  relaxRepresentatives(in, params, out);
   gap_points = fillGaps(in, params, terr, gap, out);
   return out.balls.size();
 }
@@ -99,7 +101,8 @@ public:
     for (const CoverBall& b : cached.balls)
       c.below_cap += b.radius < cap * (1.0 - 1e-9) ? 1 : 0;
     trial_ = cached;
-    c.gap_points = fillGaps(in_, params_, terr, gap_factor * in_.neighborhood_radius, trial_);
+    trial_gap_ = gap_factor * in_.neighborhood_radius;
+    c.gap_points = fillGaps(in_, params_, terr, trial_gap_, trial_);
     c.balls = trial_.balls.size();
     model_ = CoverSizeModel(cached.balls, cap, c.gap_points);
     model_terr_ = terr;
@@ -110,7 +113,24 @@ public:
   {
     return fillToCount(in_, params_, model_terr_, points, trial_);
   }
-  void keepLast() override { std::swap(best_, trial_); }
+  void keepLast() override
+  {
+    std::swap(best_, trial_);
+    kept_cover_ = covers_.front().cover;
+    kept_terr_ = model_terr_;
+    kept_gap_ = trial_gap_;
+  }
+  /// The kept trial again with its representatives relaxed (stages/representative_relax.h): its
+  /// cover, relaxed, then its gap bound, then topped up (fillToCount) to `balls_wanted` balls when
+  /// short of them. Returns the gap points and the points topped up.
+  std::pair<std::size_t, std::size_t> relaxKept(std::size_t balls_wanted, CoverOutput& relaxed) const
+  {
+    relaxed = kept_cover_;
+    relaxRepresentatives(in_, params_, relaxed);
+    const std::size_t gaps = fillGaps(in_, params_, kept_terr_, kept_gap_, relaxed);
+    const std::size_t short_of = balls_wanted > relaxed.balls.size() ? balls_wanted - relaxed.balls.size() : 0;
+    return {gaps, short_of > 0 ? fillToCount(in_, params_, kept_terr_, short_of, relaxed) : 0};
+  }
   double predictCount(double terr) const override
   {
     if (model_.balls() == 0 || !(terr > 0.0))
@@ -137,6 +157,9 @@ private:
   std::function<void(int)> progress_;
   std::list<CachedCover> covers_;  // most recent first
   CoverOutput trial_;
+  double trial_gap_ = 0.0;
+  CoverOutput kept_cover_;  // the kept trial's cover before its gap bound, its T and gap bound
+  double kept_terr_ = 0.0, kept_gap_ = 0.0;
   CoverSizeModel model_;  // the last trial's, at T = model_terr_
   double model_terr_ = 0.0;
   int trials_ = 0, passes_ = 0;
@@ -349,6 +372,24 @@ void coverToTargetSize(const CoverInput& all_features, const Parameters& params,
   s.radius_cap_factor = found.cap_factor;
   s.gap_points = found.gap_points;
   s.size_points = found.top_up_points;
+  // The search runs without the relaxation (each trial would pay for it, and its counts would
+  // move the search's steps); the cover it settled on is relaxed once, and kept when its size is
+  // as close to the target (the relaxed representatives usually leave fewer gap points: the
+  // top-up adds the missing ones, farthest first).
+  if (params.relax_representatives && found.output_points > 0)
+  {
+    CoverOutput relaxed;
+    const auto balls_wanted = static_cast<std::size_t>(std::max(0.0, std::round(target - static_cast<double>(s.feature_points))));
+    const auto [gaps, topped] = counter.relaxKept(balls_wanted, relaxed);
+    const double size = static_cast<double>(s.feature_points + relaxed.balls.size());
+    const double was = std::abs(static_cast<double>(found.output_points) - target);
+    if (std::abs(size - target) <= std::max(0.01 * target, was))
+    {
+      out.cover = std::move(relaxed);
+      s.gap_points = gaps;
+      s.size_points = topped;
+    }
+  }
   s.max_gap = found.gap_factor * s.neighborhood_radius;
   s.target_iterations = found.trials;
   s.cover_passes = counter.coverPasses();

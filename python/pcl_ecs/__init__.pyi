@@ -24,6 +24,7 @@ class Parameters:
     representative_cutoff: float
     max_roughness: float
     representative_fit: bool
+    relax_representatives: bool
     feature_spacing: float
     max_gap_factor: float
     target_gap_factor: float
@@ -66,6 +67,7 @@ def simplify(
     representative_cutoff: float = 0.05,
     max_roughness: float = 0.2,
     representative_fit: bool = True,
+    relax_representatives: bool = True,
     feature_spacing: float = 0.0,
     max_gap_factor: float = 1.0,
     target_gap_factor: float = 0.6,

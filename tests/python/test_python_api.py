@@ -78,10 +78,11 @@ def test_float32_and_float64_give_the_same_cloud():
 def test_every_parameter_is_a_keyword_that_round_trips():
     defaults = pcl_ecs.Parameters()
     names = pcl_ecs.parameter_names()
-    assert "error_threshold" in names and "target_size" in names and len(names) == 22
+    assert "error_threshold" in names and "target_size" in names and len(names) == 23
     changed = {"error_threshold": 0.002, "error_threshold_abs": 0.05, "feature_factor": 5.0, "k_neighbors": 12, "error_form": "paper",
                "adaptive": False, "adaptive_factor": 3.0, "radius_cap_factor": 4.0, "target_radius_cap": 2.0,
-               "max_representative_offset": 0.7, "representative_cutoff": 0.1, "max_roughness": 0.3, "representative_fit": False, "feature_spacing": 1.5,
+               "max_representative_offset": 0.7, "representative_cutoff": 0.1, "max_roughness": 0.3, "representative_fit": False,
+               "relax_representatives": False, "feature_spacing": 1.5,
                "max_gap_factor": 0.8, "target_gap_factor": 0.5, "seed": 7, "threads": 1,
                "use_input_normals": False, "target_size": 0, "max_deviation": 0.05,
                "report_deviation": True}
@@ -91,8 +92,8 @@ def test_every_parameter_is_a_keyword_that_round_trips():
     spelling = {row["field"]: row["name"] for row in pcl_ecs._core._parameter_table()}
     assert set(spelling) == set(names)
     for name, value in changed.items():
-        # The switches --no-adapt and --no-rep-fit say the opposite of their fields.
-        expected = (not value) if name in ("adaptive", "representative_fit") else value
+        # The switches --no-adapt, --no-rep-fit and --no-relax say the opposite of their fields.
+        expected = (not value) if name in ("adaptive", "representative_fit", "relax_representatives") else value
         assert r.summary["parameters"][spelling[name]] == expected, name
     assert getattr(defaults, "error_threshold") == 1e-3 and defaults.k_neighbors == 16
 

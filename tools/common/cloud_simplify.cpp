@@ -131,7 +131,10 @@ CloudRun simplifyCloud(const pcl::PCLPointCloud2& input, const Parameters& given
   {
     if (r.labels[i] != PointLabel::Representative)
       continue;
-    const Eigen::Vector3d& v = r.balls[static_cast<std::size_t>(r.ball_of_output[i])].representative;
+    const Ball& ball = r.balls[static_cast<std::size_t>(r.ball_of_output[i])];
+    if (ball.isOwnPoint())
+      continue;  // its record, copied whole: the input's coordinates in the input's own type
+    const Eigen::Vector3d& v = ball.representative;
     std::uint8_t* rec = out.data.data() + i * out.point_step;
     for (int a = 0; a < 3; ++a)
       io::storeFieldValue(v[a], axis[a]->datatype, rec + axis[a]->offset);  // in the input's own type

@@ -94,6 +94,11 @@ public:
    * on; off is the paper's method; Parameters::representative_fit). */
   void setRepresentativeFit(bool on) { params_.representative_fit = on; }
   bool getRepresentativeFit() const { return params_.representative_fit; }
+  /** \brief Move the fitted representatives towards the centres of the points nearest to them,
+   * along their fitted surfaces (default on; off is the paper's method;
+   * Parameters::relax_representatives). */
+  void setRelaxRepresentatives(bool on) { params_.relax_representatives = on; }
+  bool getRelaxRepresentatives() const { return params_.relax_representatives; }
   /** \brief No input point farther than factor × the radius cap from the output; 0 = off (see
    * Parameters::max_gap_factor; target-size mode: setTargetGapFactor). */
   void setMaxGapFactor(double factor) { params_.max_gap_factor = factor; }

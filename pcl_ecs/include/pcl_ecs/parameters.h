@@ -110,6 +110,13 @@ struct Parameters
    * surface, not off it by the planes' bias or the noise. Default on; off is the paper's method. */
   bool representative_fit = true;
 
+  /** \brief After the cover, move each representative that lies on its ball's fitted quadratic
+   * towards the centroid of the points nearest to it, along that quadratic: one step of Lloyd's
+   * algorithm on the surface (stages/representative_relax.h). The output then stands for its points
+   * more evenly: nearer to them, and on the surface. Needs representative_fit (without it no
+   * representative lies on a fit). Default on; off is the paper's method. */
+  bool relax_representatives = true;
+
   /** \brief The gap bound (stages/gap_fill.h), in the T_err mode and out of core: after the
    * cover, every point farther than this many times the radius cap from all output points becomes
    * an output point of its own, greedily, so that no input point is farther than

@@ -30,6 +30,10 @@ struct Ball
   std::size_t replaced = 0;  ///< input points this ball covered (c included)
   bool used_centre = false;  ///< v = c: the ball was too rough, or its minimiser too far from c (ball_cover.h)
   std::size_t output_index = 0;  ///< index of v in the output cloud
+
+  /// An input point made an output point of its own (radius 0, v = c: the gap bound, a target
+  /// size's top-up, the deviation bound); the output holds its input coordinates exactly.
+  bool isOwnPoint() const { return radius == 0.0 && used_centre; }
 };
 
 /** \brief Wall time of each stage, in seconds. */

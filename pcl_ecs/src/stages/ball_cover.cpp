@@ -274,6 +274,8 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
       {
         v_offset = fitted->offset;
         ball.representative = centre + v_offset;
+        ball.fitted = true;
+        ball.fit = fitted->coefficients;
       }
     }
 

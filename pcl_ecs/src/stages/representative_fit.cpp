@@ -55,9 +55,20 @@ std::optional<RepresentativeFit> fitRepresentativeHeight(const std::vector<Eigen
     return std::nullopt;
   RepresentativeFit fit;
   fit.offset = x - normal.dot(x) * normal + height * normal;
+  fit.coefficients = k;
   // Σ g (h − φᵀk)² = Σ g h² − kᵀ rhs at the least-squares k; Σ g is the (0, 0) entry.
   fit.residual = std::sqrt(std::max(0.0, height_sq - k.dot(rhs)) / normal_matrix(0, 0)) / radius;
   return fit;
+}
+
+Eigen::Vector3d onFittedHeight(const Eigen::Matrix<double, 6, 1>& k, double radius, const Eigen::Vector3d& normal,
+                               const Eigen::Vector3d& x)
+{
+  Eigen::Vector3d t1, t2;
+  tangentFrame(normal, t1, t2);
+  const double u = t1.dot(x) / radius, v = t2.dot(x) / radius;
+  const double height = k(0) + k(1) * u + k(2) * v + k(3) * u * u + k(4) * u * v + k(5) * v * v;
+  return x - normal.dot(x) * normal + height * normal;
 }
 
 }  // namespace pcl_ecs

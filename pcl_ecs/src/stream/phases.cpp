@@ -254,6 +254,7 @@ void Runner::coverTask(int t)
   p.threads = tile_threads_;
   CoverOutput cover;
   coverWithBalls(in, p, params_.error_threshold, cover);
+  relaxRepresentatives(in, p, cover);
 
   // Output: own feature points in input order, then the balls.
   const io::XyzAccess xyz(header_);

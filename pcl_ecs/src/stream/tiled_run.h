@@ -21,6 +21,7 @@
 #include <pcl_ecs/stages/local_density.h>
 #include <pcl_ecs/stages/normals.h>
 #include <pcl_ecs/stages/paraboloid_curvature.h>
+#include <pcl_ecs/stages/representative_relax.h>
 #include <pcl_ecs/stages/seeded_order.h>
 
 #include "../detail/radix_sort.h"

@@ -102,6 +102,10 @@ struct CoverBall
   Eigen::Vector3f normal = Eigen::Vector3f::UnitZ();  ///< averaged over the ball, c's sign
   std::size_t replaced = 0;   ///< points whose owner is this ball
   std::size_t evaluations = 0;  ///< E(r) computed by the radius solve
+  /// The representative lies on the quadratic fitted to the ball's points (representative_fit.h),
+  /// `fit` its coefficients in the centre's tangent frame: relaxRepresentatives moves it along it.
+  bool fitted = false;
+  Eigen::Matrix<double, 6, 1> fit = Eigen::Matrix<double, 6, 1>::Zero();
 };
 
 /** \brief Parameters::max_roughness: a ball this rough keeps its centre as its representative. */

@@ -51,7 +51,13 @@ struct RepresentativeFit
 {
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();
   double residual = 0.0;
+  Eigen::Matrix<double, 6, 1> coefficients = Eigen::Matrix<double, 6, 1>::Zero();
 };
+
+/** \brief The offset x moved along `normal` onto the quadratic `coefficients` (as fitted by
+ * fitRepresentativeHeight with this normal and radius). */
+Eigen::Vector3d onFittedHeight(const Eigen::Matrix<double, 6, 1>& coefficients, double radius,
+                               const Eigen::Vector3d& normal, const Eigen::Vector3d& x);
 
 /** \brief The offset x (from the centre) moved along `normal` (unit, the centre's) onto the
  * quadratic height field fitted to `offsets` (the members, offsets from the centre) with weights
