@@ -112,15 +112,21 @@ Cloud runMethod(const std::string& m, const Cloud::Ptr& in, double param, std::s
   Cloud out;
   if (m == "pcl_ecs")
   {
-    // The T_err, radius cap, gap bound and feature spacing that the target-size search found (in
-    // the parent, untimed): the plain run with them gives the target run's output.
+    // With a count, the target-size run itself (the mode a user calls: its search, the relaxed
+    // cover it settles on and the top-up to the count); without one, the plain run at the T_err,
+    // radius cap, gap bound and feature spacing given (a sweep's point).
     pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> f;
-    f.setErrorThreshold(param);
-    if (cap > 0)
-      f.setRadiusCapFactor(cap);
-    if (gap >= 0)
-      f.setMaxGapFactor(gap);
-    f.setFeatureSpacing(feature_spacing);
+    if (target > 0)
+      f.setTargetSize(target);
+    else
+    {
+      f.setErrorThreshold(param);
+      if (cap > 0)
+        f.setRadiusCapFactor(cap);
+      if (gap >= 0)
+        f.setMaxGapFactor(gap);
+      f.setFeatureSpacing(feature_spacing);
+    }
     f.setInputCloud(in);
     f.filter(out);
   }

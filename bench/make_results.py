@@ -278,7 +278,7 @@ def main():
              "Every method runs at the same output size: each peer's own parameter (leaf size, radius, cell",
              "size, cluster size) is searched until its size is within 1% of the target; the count-based ones",
              "(RandomSample, NormalSpaceSampling, FarthestPointSampling, WLOP, the Python samplers) are given",
-             "the target. A peer whose size misses the target by more than 2% (CGAL hierarchy where its",
+             "the target, and so is pcl_ecs (`setTargetSize`, the mode `--target-ratio` runs). A peer whose size misses the target by more than 2% (CGAL hierarchy where its",
              "cluster variation limit stops it) is listed but not compared. Each run is timed in a process of",
              "its own (the Python samplers: the call alone, after the import); peak MiB is the resident memory",
              "above what the loaded input already used.",
