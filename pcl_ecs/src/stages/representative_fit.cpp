@@ -12,6 +12,35 @@
 namespace pcl_ecs
 {
 
+namespace
+{
+using Vector6 = Eigen::Matrix<double, 6, 1>;
+
+/// The quadratic's monomials (1, u, v, u², uv, v²) at an offset, (u, v) its tangent coordinates in
+/// the centre's frame (tangent_frame.h) in radii: the fit's basis and its height, in one place.
+/// Radii keep the normal equations well scaled whatever the units.
+class QuadraticBasis
+{
+public:
+  QuadraticBasis(const Eigen::Vector3d& normal, double radius) : radius_(radius) { tangentFrame(normal, t1_, t2_); }
+  Vector6 operator()(const Eigen::Vector3d& o) const
+  {
+    const double u = t1_.dot(o) / radius_, v = t2_.dot(o) / radius_;
+    return (Vector6() << 1.0, u, v, u * u, u * v, v * v).finished();
+  }
+
+private:
+  double radius_;
+  Eigen::Vector3d t1_, t2_;
+};
+
+/// x moved along the normal to `height`: its tangent position at that height.
+Eigen::Vector3d atHeight(const Eigen::Vector3d& x, const Eigen::Vector3d& normal, double height)
+{
+  return x - normal.dot(x) * normal + height * normal;
+}
+}  // namespace
+
 bool smoothQuadric(const Quadric& q, double cutoff)
 {
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(q.A, Eigen::EigenvaluesOnly);
@@ -25,14 +54,7 @@ std::optional<RepresentativeFit> fitRepresentativeHeight(const std::vector<Eigen
 {
   if (offsets.size() < kRepresentativeFitMinPoints || !(radius > 0.0))
     return std::nullopt;
-  Eigen::Vector3d t1, t2;
-  tangentFrame(normal, t1, t2);
-  // Tangent coordinates in radii keep the normal equations well scaled whatever the units.
-  using Vector6 = Eigen::Matrix<double, 6, 1>;
-  auto basis = [&](const Eigen::Vector3d& o) {
-    const double u = t1.dot(o) / radius, v = t2.dot(o) / radius;
-    return (Vector6() << 1.0, u, v, u * u, u * v, v * v).finished();
-  };
+  const QuadraticBasis basis(normal, radius);
   Eigen::Matrix<double, 6, 6> normal_matrix = Eigen::Matrix<double, 6, 6>::Zero();
   Vector6 rhs = Vector6::Zero();
   double height_sq = 0.0;  // Σ g h²: with the normal equations, the fit's residual
@@ -54,7 +76,7 @@ std::optional<RepresentativeFit> fitRepresentativeHeight(const std::vector<Eigen
   if (!std::isfinite(height) || !(std::abs(height) < radius))
     return std::nullopt;
   RepresentativeFit fit;
-  fit.offset = x - normal.dot(x) * normal + height * normal;
+  fit.offset = atHeight(x, normal, height);
   fit.coefficients = k;
   // Σ g (h − φᵀk)² = Σ g h² − kᵀ rhs at the least-squares k; Σ g is the (0, 0) entry.
   fit.residual = std::sqrt(std::max(0.0, height_sq - k.dot(rhs)) / normal_matrix(0, 0)) / radius;
@@ -64,11 +86,7 @@ std::optional<RepresentativeFit> fitRepresentativeHeight(const std::vector<Eigen
 Eigen::Vector3d onFittedHeight(const Eigen::Matrix<double, 6, 1>& k, double radius, const Eigen::Vector3d& normal,
                                const Eigen::Vector3d& x)
 {
-  Eigen::Vector3d t1, t2;
-  tangentFrame(normal, t1, t2);
-  const double u = t1.dot(x) / radius, v = t2.dot(x) / radius;
-  const double height = k(0) + k(1) * u + k(2) * v + k(3) * u * u + k(4) * u * v + k(5) * v * v;
-  return x - normal.dot(x) * normal + height * normal;
+  return atHeight(x, normal, k.dot(QuadraticBasis(normal, radius)(x)));
 }
 
 }  // namespace pcl_ecs

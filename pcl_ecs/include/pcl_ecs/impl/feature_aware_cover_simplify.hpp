@@ -170,11 +170,10 @@ void assembleOutput(const pcl::PointCloud<PointT>& input, const LocalFrame<Point
     const CoverBall& cb = core.cover.balls[b];
     PointT& p = output[o];
     p = input[used[static_cast<std::size_t>(cb.attribute_source)]];
-    // A point made an output point of its own (gap_fill.h: a ball of radius 0 on it, its own record)
+    // A point made an output point of its own (isOwnPoint: its record is the one copied above)
     // keeps its input coordinates exactly, as the out-of-core run copies its record; the others
     // come back from the local frame.
-    const bool own_point = cb.radius == 0.0 && cb.used_centre && cb.attribute_source == cb.centre;
-    const Eigen::Vector3d world = own_point ? Eigen::Vector3d(p.getVector3fMap().template cast<double>())
+    const Eigen::Vector3d world = isOwnPoint(cb) ? Eigen::Vector3d(p.getVector3fMap().template cast<double>())
                                             : Eigen::Vector3d(cb.representative / f.scale + f.origin);
     p.x = static_cast<float>(world.x());
     p.y = static_cast<float>(world.y());

@@ -118,6 +118,14 @@ inline bool tooRough(const CoverBall& ball, const Parameters& params)
   return tooRough(ball.roughness, params);
 }
 
+/** \brief An input point made an output point of its own: a ball of radius 0 whose representative is
+ * its centre (the gap bound, a target size's top-up, the deviation bound, a centre whose floor
+ * radius failed). The output holds its input record exactly (Ball::isOwnPoint in the result). */
+inline bool isOwnPoint(const CoverBall& ball)
+{
+  return ball.radius == 0.0 && ball.used_centre;
+}
+
 /** \brief How far a ball's points scatter about the quadric's minimiser: sqrt(Q(x_min) / sum
  * of weights) / r (0 for a ball of radius 0). */
 double ballRoughness(const RadiusSolution& sol);
