@@ -97,6 +97,7 @@ public:
     else
       covers_.splice(covers_.begin(), covers_, hit);
     const CoverOutput& cached = covers_.front().cover;
+    trial_top_up_ = 0;
     TargetTrialCounts c;
     for (const CoverBall& b : cached.balls)
       c.below_cap += b.radius < cap * (1.0 - 1e-9) ? 1 : 0;
@@ -109,9 +110,21 @@ public:
     progress_(++trials_);
     return c;
   }
+  /// With the relaxation on, the trial's top-up is only counted here (the kept trial is relaxed and
+  /// topped up again: relaxKept) and made by finishKept when the relaxed result is not used. The
+  /// count is the one fillToCount would add: the points asked for, up to the covered points that
+  /// are not output points already.
   std::size_t topUp(std::size_t points) override
   {
-    return fillToCount(in_, params_, model_terr_, points, trial_);
+    if (!params_.relax_representatives)
+      return fillToCount(in_, params_, model_terr_, points, trial_);
+    std::size_t covered = 0, centres = 0;
+    for (const int o : trial_.owner)
+      covered += o >= 0 ? 1 : 0;
+    for (const CoverBall& b : trial_.balls)
+      centres += b.used_centre ? 1 : 0;
+    trial_top_up_ = std::min(points, covered > centres ? covered - centres : 0);
+    return trial_top_up_;
   }
   void keepLast() override
   {
@@ -119,6 +132,12 @@ public:
     kept_cover_ = covers_.front().cover;
     kept_terr_ = model_terr_;
     kept_gap_ = trial_gap_;
+    kept_top_up_ = std::exchange(trial_top_up_, 0);
+  }
+  /// The kept trial's top-up, when topUp only counted it; returns the points added.
+  std::size_t finishKept()
+  {
+    return kept_top_up_ > 0 ? fillToCount(in_, params_, kept_terr_, std::exchange(kept_top_up_, 0), best_) : 0;
   }
   /// The kept trial again with its representatives relaxed (stages/representative_relax.h): its
   /// cover, relaxed, then its gap bound, then topped up (fillToCount) to `balls_wanted` balls when
@@ -160,6 +179,7 @@ private:
   double trial_gap_ = 0.0;
   CoverOutput kept_cover_;  // the kept trial's cover before its gap bound, its T and gap bound
   double kept_terr_ = 0.0, kept_gap_ = 0.0;
+  std::size_t trial_top_up_ = 0, kept_top_up_ = 0;  // top-ups counted, not made yet (topUp)
   CoverSizeModel model_;  // the last trial's, at T = model_terr_
   double model_terr_ = 0.0;
   int trials_ = 0, passes_ = 0;
@@ -389,6 +409,8 @@ void coverToTargetSize(const CoverInput& all_features, const Parameters& params,
       s.gap_points = gaps;
       s.size_points = topped;
     }
+    else
+      s.size_points = counter.finishKept();
   }
   s.max_gap = found.gap_factor * s.neighborhood_radius;
   s.target_iterations = found.trials;

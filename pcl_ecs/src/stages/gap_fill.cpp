@@ -148,43 +148,57 @@ std::size_t fillToCount(const CoverInput& in, const Parameters& params, double e
   for (const Eigen::Vector3d& p : outputPositions(in, out))
     outputs.insert(p);
   auto before = [](const Entry& a, const Entry& b) { return a.first < b.first || (a.first == b.first && a.second > b.second); };
-  // The exact distances of the points with the largest bounds, in parallel (the grid is only
-  // read): the points taken come from among them unless many bounds are loose. The others are
-  // measured when they reach the top of the queue (`measured` says which are exact).
-  std::vector<std::uint8_t> measured(in.cloud.size(), 0);
-  const std::size_t batch = std::min(entries.size(), std::max(4 * count, measured_first));
-  std::nth_element(entries.begin(), entries.begin() + static_cast<std::ptrdiff_t>(batch) - 1, entries.end(),
-                   [&](const Entry& a, const Entry& b) { return before(b, a); });
-  {
-    const auto n = static_cast<std::ptrdiff_t>(batch);
-#pragma omp parallel for schedule(dynamic, 4096) num_threads(std::max(1, resolveThreads(params.threads)))
+  // Exact distances (to the output points, in parallel: the grid is only read) replace the bounds
+  // of the entries with the largest bounds, `first` of them up front: the points taken come from
+  // among those unless many bounds are loose. The others, [next, end), are measured in batches
+  // (largest bounds first, each batch as large as all before it) when the largest of their bounds
+  // comes above the queue's top, so that the queue is always topped by the entry a queue of every
+  // entry would have on top.
+  const int threads = std::max(1, resolveThreads(params.threads));
+  auto larger = [&](const Entry& a, const Entry& b) { return before(b, a); };
+  auto measureLargest = [&](std::size_t from, std::size_t k) {
+    const auto begin = entries.begin() + static_cast<std::ptrdiff_t>(from);
+    std::nth_element(begin, begin + static_cast<std::ptrdiff_t>(k) - 1, entries.end(), larger);
+    const auto n = static_cast<std::ptrdiff_t>(k);
+#pragma omp parallel for schedule(dynamic, 4096) num_threads(threads)
     for (std::ptrdiff_t c = 0; c < n; ++c)
     {
-      Entry& e = entries[static_cast<std::size_t>(c)];
+      Entry& e = entries[from + static_cast<std::size_t>(c)];
       e.first = outputs.nearestSquared(position(e.second), std::sqrt(e.first), e.first);
     }
-  }
-  for (std::size_t c = 0; c < batch; ++c)
-    measured[entries[c].second] = 1;
+  };
+  const std::size_t first = std::min(entries.size(), std::max(4 * count, measured_first));
+  measureLargest(0, first);
   // Lazy greedy farthest-point insertion: a stored distance only overstates the current one (it
   // is a bound, or exact before the points added since, which can only be nearer), so the point
-  // at the top of the queue is measured and taken when it still is at least the next one's
-  // stored distance.
-  std::priority_queue<Entry, std::vector<Entry>, decltype(before)> queue(before, std::move(entries));
+  // at the top of the queue is measured against the points added and taken when it still is at
+  // least the next one's stored distance.
+  std::priority_queue<Entry, std::vector<Entry>, decltype(before)> queue(
+      before, std::vector<Entry>(entries.begin(), entries.begin() + static_cast<std::ptrdiff_t>(first)));
+  std::size_t next = first;
+  auto largestUnmeasured = [&] { return *std::max_element(entries.begin() + static_cast<std::ptrdiff_t>(next), entries.end(), before); };
+  Entry unmeasured_top = next < entries.size() ? largestUnmeasured() : Entry{};
+  auto settle = [&] {
+    while (next < entries.size() && (queue.empty() || before(queue.top(), unmeasured_top)))
+    {
+      const std::size_t k = std::min(entries.size() - next, next);
+      measureLargest(next, k);
+      for (std::size_t c = next; c < next + k; ++c)
+        queue.push(entries[c]);
+      next += k;
+      if (next < entries.size())
+        unmeasured_top = largestUnmeasured();
+    }
+  };
   PointGrid added_grid(side);
   std::size_t added = 0;
-  while (added < count && !queue.empty())
+  while (added < count && (settle(), !queue.empty()))
   {
     const auto [stored, i] = queue.top();
     queue.pop();
+    settle();
     const Eigen::Vector3d p = position(i);
-    double d2 = stored;
-    if (!measured[i])
-    {
-      measured[i] = 1;
-      d2 = outputs.nearestSquared(p, std::sqrt(stored), stored);
-    }
-    d2 = std::min(d2, added_grid.nearestSquared(p, side, d2));
+    const double d2 = std::min(stored, added_grid.nearestSquared(p, side, stored));
     if (!(d2 > 0.0))
       continue;  // an output point sits on it
     if (d2 < stored && !queue.empty() && before(Entry{d2, i}, queue.top()))

@@ -59,8 +59,9 @@ std::size_t fillGaps(const CoverInput& in, const Parameters& params, double erro
  * output point already).
  * A point's distance to its own representative bounds its distance to the output: the points with
  * the `measured_first` (at least 4 × count) largest bounds are measured up front, in parallel, the
- * others only if they reach the top of the farthest-first queue. The result depends on neither
- * `measured_first` nor params.threads. */
+ * others in parallel batches (largest bounds first, each batch as large as all measured before it)
+ * only when the largest of their bounds comes above the top of the farthest-first queue. The
+ * result depends on neither `measured_first` nor params.threads. */
 std::size_t fillToCount(const CoverInput& in, const Parameters& params, double error_threshold, std::size_t count,
                         CoverOutput& out, std::size_t measured_first = 65536);
 
