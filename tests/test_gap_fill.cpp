@@ -175,7 +175,8 @@ TEST(GapFill, FillToCountAddsTheFarthestPointEachTime)
   pcl_ecs::Parameters p;
   p.radius_cap_factor = 8.0;
   // Runs: 1 and 4 threads measuring every point up front, and measuring only the 4 × count
-  // largest bounds up front (the rest as they reach the top of the queue).
+  // largest bounds up front (the rest in batches as their bounds reach the top of the queue: four
+  // batches on this plane).
   std::vector<Eigen::Vector3d> reps[3];
   for (int k = 0; k < 3; ++k)
   {
