@@ -12,6 +12,11 @@
 // balls at the cap meet, follow the number of balls at the cap. Exact at s = 1; within a few
 // percent for s in 0.7-1.5 on the shared scans, and rougher from a cover whose balls are all at
 // the cap (how far below the tolerance their error lies says little about how they shrink).
+// Measuring each ball's own exponent instead (E also at 0.7 × the cap, E ~ r^p between the two)
+// predicts the first step from the saturated start cover within 0.1% on a 1M-point bunny scan,
+// where r² predicts 5% too few, but 1-4% too many on the shared CAD and organic scans (where a
+// crease inside the ball at the cap makes E fall faster once the ball shrinks past it): over the
+// shared scans at 10%, 3% and 1% it took 222 covers where r² takes 198.
 #pragma once
 
 #include <pcl_ecs/stages/ball_cover.h>
