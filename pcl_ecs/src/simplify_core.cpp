@@ -71,13 +71,12 @@ std::size_t runCover(const CoverInput& in, const Parameters& params, double terr
 /// that only widens the gap bound, or comes back to a T it tried at this cap, reuses the cover and
 /// redoes only the gap bound (the same result as running it again). Its prediction is the last
 /// trial's CoverSizeModel (stages/cover_size_model.h).
-/// Every other trial is a whole cover. Deriving a trial at a smaller T from a kept cover instead
-/// (keeping the cells none of whose balls would change, covering the others again) does not pay:
-/// redoing only the cells whose balls change leaves points that a kept neighbour's ball no longer
-/// covers, and covering them afterwards costs 4-5% more balls at the same T (measured: the cover
-/// stage 16% faster on a 1M-point scan, 2% over the 60 shared target runs, the output → mesh
-/// distance up to 17% worse on some); redoing also the cells those points lie in gives the counts
-/// of a whole cover but redoes nearly every cell (no faster on the 1M-point scan).
+/// Every other trial is a whole cover, so that the result is the plain run at the settings the
+/// search settled on (tested). Deriving a trial at a smaller T from a kept cover instead (the cells
+/// none of whose balls would change kept, the others covered again, the points a kept cell then
+/// leaves uncovered given to the nearest representative's ball) gives counts within 1% of whole
+/// covers and took 17% less CPU time on a 1M-point scan at 10%, 5% over the 60 shared target runs,
+/// with quality medians within 1%; it would give up that equality.
 class CoverCounter : public TargetCounter
 {
 public:
