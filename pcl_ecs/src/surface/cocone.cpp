@@ -307,7 +307,8 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
 
   t0 = Clock::now();
   result.triangles = cleanUp(points, spacing, params, cand, alive, edges, walked, st);
-  st.cleanup_removed_triangles = st.extracted_triangles + st.filled_triangles - result.triangles.size();
+  st.cleanup_removed_triangles =
+      st.extracted_triangles + st.filled_triangles + st.stitched_triangles - result.triangles.size();
   st.time_cleanup = since(t0);
   st.triangles = result.triangles.size();
   {

@@ -2,6 +2,8 @@
 // notches and holes closed, loops sealed when asked, small components dropped.
 #include "cocone_detail.h"
 
+#include <cstdlib>
+#include <cstdio>
 #include <deque>
 #include <unordered_map>
 #include <unordered_set>
@@ -15,6 +17,175 @@ namespace detail
 
 namespace
 {
+/// Step 7, second part: the orientation of the pieces the manifold clean-up leaves. A piece can
+/// come out inside out: the walk crossed a fold (a sliver where two sheets meet) and went on with
+/// the other side up, and the clean-up then cut the fold, or the piece was walked from a seed with
+/// no hull vertex to orient it. Each piece after the first (the one holding the walk's first kept
+/// triangle, oriented at the hull) takes the orientation of the pieces settled around it, largest
+/// first: its vertex normals are compared with the settled vertices' within 3 local spacings (at
+/// most 9 median spacings) that lie along its tangent plane, at most 60° off it seen from either
+/// end (not across a thin part, whose two sheets face opposite ways), and the piece is reversed
+/// when they disagree on balance. Returns the number of pieces reversed.
+std::size_t orientPieces(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& spacing,
+                         std::vector<Triangle>& out, const std::vector<char>& keep)
+{
+  // The pieces: components of the kept triangles. After keepManifold two triangles at an edge run
+  // it in opposite directions and a vertex has one fan, so each piece is consistently oriented, and
+  // pieces through shared vertices are pieces through shared edges.
+  std::vector<std::uint32_t> kept;
+  for (std::uint32_t t = 0; t < out.size(); ++t)
+    if (keep[t])
+      kept.push_back(t);
+  if (kept.empty())
+    return 0;
+  const std::size_t n = points.size();
+  UnionFind uf(n);
+  for (std::uint32_t t : kept)
+  {
+    uf.unite(out[t][0], out[t][1]);
+    uf.unite(out[t][0], out[t][2]);
+  }
+  // Piece ids in walk order of their first triangle (piece 0 holds the walk's first kept
+  // triangle, which the hull seed oriented); members listed piece by piece.
+  std::vector<std::uint32_t> id(kept.size(), kNone), root_id(n, kNone);
+  std::uint32_t pieces = 0;
+  for (std::uint32_t k = 0; k < kept.size(); ++k)
+  {
+    const std::uint32_t r = uf.find(out[kept[k]][0]);
+    if (root_id[r] == kNone)
+      root_id[r] = pieces++;
+    id[k] = root_id[r];
+  }
+  if (pieces < 2)
+    return 0;
+  std::vector<std::uint32_t> first(pieces + 1, 0);
+  for (std::uint32_t c : id)
+    ++first[c + 1];
+  for (std::uint32_t c = 0; c < pieces; ++c)
+    first[c + 1] += first[c];
+  std::vector<std::uint32_t> member(kept.size());
+  {
+    std::vector<std::uint32_t> fill(first.begin(), first.end() - 1);
+    for (std::uint32_t k = 0; k < kept.size(); ++k)
+      member[fill[id[k]]++] = kept[k];
+  }
+  std::vector<std::uint32_t> rank(pieces);
+  std::iota(rank.begin(), rank.end(), 0u);
+  std::stable_sort(rank.begin() + 1, rank.end(), [&](std::uint32_t x, std::uint32_t y) {
+    return first[x + 1] - first[x] > first[y + 1] - first[y];
+  });
+
+  // A grid over the used vertices, cells of 3 median spacings.
+  std::vector<char> mark(n, 0);
+  std::vector<std::uint32_t> used;
+  for (std::uint32_t t : kept)
+    for (std::uint32_t x : out[t])
+      if (!mark[x])
+      {
+        mark[x] = 1;
+        used.push_back(x);
+      }
+  std::vector<double> sp;
+  for (std::uint32_t x : used)
+    if (spacing[x] > 0 && std::isfinite(spacing[x]))
+      sp.push_back(spacing[x]);
+  if (sp.empty())
+    return 0;
+  std::nth_element(sp.begin(), sp.begin() + static_cast<std::ptrdiff_t>(sp.size() / 2), sp.end());
+  Eigen::Vector3d lo = points[used[0]], hi = lo;
+  for (std::uint32_t x : used)
+  {
+    lo = lo.cwiseMin(points[x]);
+    hi = hi.cwiseMax(points[x]);
+  }
+  const double h = std::max(3 * sp[sp.size() / 2], (hi - lo).maxCoeff() / double(1 << 20));
+  auto cellOf = [&](const Eigen::Vector3d& p) {
+    return Eigen::Vector3i(static_cast<int>((p.x() - lo.x()) / h), static_cast<int>((p.y() - lo.y()) / h),
+                           static_cast<int>((p.z() - lo.z()) / h));
+  };
+  auto keyOf = [](int x, int y, int z) {
+    return (static_cast<std::uint64_t>(x) << 42) | (static_cast<std::uint64_t>(y) << 21) | static_cast<std::uint64_t>(z);
+  };
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> grid;
+  grid.reserve(used.size());
+  for (std::uint32_t x : used)
+  {
+    const Eigen::Vector3i c = cellOf(points[x]);
+    grid.emplace_back(keyOf(c.x(), c.y(), c.z()), x);
+  }
+  // By cell, stably (the vertices of a cell in order of first use: a fixed order of the votes).
+  radixSortStable(grid, [](const std::pair<std::uint64_t, std::uint32_t>& g) { return g.first; });
+
+  std::vector<Eigen::Vector3d> settled(n, Eigen::Vector3d::Zero()), own(n, Eigen::Vector3d::Zero());
+  std::vector<std::uint32_t> verts;
+  std::size_t reversed = 0;
+  for (std::uint32_t c : rank)
+  {
+    verts.clear();
+    for (std::uint32_t k = first[c]; k < first[c + 1]; ++k)
+    {
+      const std::uint32_t t = member[k];
+      const Eigen::Vector3d nrm = (points[out[t][1]] - points[out[t][0]]).cross(points[out[t][2]] - points[out[t][0]]);
+      for (std::uint32_t x : out[t])
+      {
+        if (own[x].isZero())
+          verts.push_back(x);
+        own[x] += nrm;
+      }
+    }
+    if (c != 0)
+    {
+      double vote = 0;
+      for (std::uint32_t p : verts)
+      {
+        if (own[p].isZero())
+          continue;
+        const Eigen::Vector3d np = own[p].normalized();
+        const double r = std::min(3 * spacing[p], 3 * h);
+        if (!(r > 0))
+          continue;
+        const Eigen::Vector3i c0 = cellOf(points[p] - Eigen::Vector3d::Constant(r)),
+                              c1 = cellOf(points[p] + Eigen::Vector3d::Constant(r));
+        for (int x = std::max(c0.x(), 0); x <= c1.x(); ++x)
+          for (int y = std::max(c0.y(), 0); y <= c1.y(); ++y)
+            for (int z = std::max(c0.z(), 0); z <= c1.z(); ++z)
+            {
+              const std::uint64_t key = keyOf(x, y, z);
+              auto it = std::lower_bound(grid.begin(), grid.end(), key,
+                                         [](const std::pair<std::uint64_t, std::uint32_t>& g, std::uint64_t k) { return g.first < k; });
+              for (; it != grid.end() && it->first == key; ++it)
+              {
+                const std::uint32_t q = it->second;
+                if (q == p || settled[q].isZero())
+                  continue;
+                const Eigen::Vector3d d = points[q] - points[p];
+                const double dn = d.norm();
+                if (dn > r)
+                  continue;
+                const Eigen::Vector3d nq = settled[q].normalized();
+                if (std::abs(d.dot(np)) <= 0.5 * dn && std::abs(d.dot(nq)) <= 0.5 * dn)
+                  vote += np.dot(nq);
+              }
+            }
+      }
+      if (vote < 0)
+      {
+        ++reversed;
+        for (std::uint32_t k = first[c]; k < first[c + 1]; ++k)
+          std::swap(out[member[k]][1], out[member[k]][2]);
+        for (std::uint32_t p : verts)
+          own[p] = -own[p];
+      }
+    }
+    for (std::uint32_t p : verts)
+    {
+      settled[p] += own[p];
+      own[p].setZero();
+    }
+  }
+  return reversed;
+}
+
 /// Step 7, first part: at most two triangles per edge (the first two in walk order, if they
 /// disagree in direction) and one fan per vertex (its largest); returns which triangles stay.
 std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n)
@@ -127,7 +298,7 @@ std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n)
   return keep;
 }
 
-/// Step 7, second part: triangles added to the kept mesh, with the use of every edge tracked.
+/// Step 7, third part: triangles added to the kept mesh, with the use of every edge tracked.
 class MeshFill
 {
 public:
@@ -214,8 +385,8 @@ public:
   /// Holes (boundary loops of at most max_edges edges) are closed by ear clipping, shortest new
   /// edge first; a loop whose ears would all create an existing edge (or, with the ratio guard, an
   /// edge longer than max_edge_ratio × the local spacing: a gap in the sampling) is left open.
-  /// Returns the number of loops closed.
-  std::size_t closeLoops(std::size_t max_edges, bool ratio_guard)
+  /// `loops` come from holeLoops. Returns the number of loops closed.
+  std::size_t closeLoops(std::vector<std::vector<std::uint32_t>> loops, bool ratio_guard)
   {
     const auto& points = points_;
     const auto& spacing = spacing_;
@@ -224,51 +395,9 @@ public:
     auto& keep = keep_;
     auto& use = use_;
     auto& st = st_;
-    // Hole edges: existing a → b gives hole edge b → a. A vertex with two outgoing hole edges (two
-    // openings meeting at it) is ambiguous: loops through it are left alone.
-    std::unordered_map<std::uint32_t, std::uint32_t> hole_next;
-    std::unordered_set<std::uint32_t> ambiguous;
-    std::vector<std::uint32_t> starts;
-    for (const auto& [key, u] : use)
-    {
-      if (u.count != 1)
-        continue;
-      const auto lo = static_cast<std::uint32_t>(key >> 32), hi = static_cast<std::uint32_t>(key & 0xffffffffu);
-      const std::uint32_t a = u.from, b = (a == lo ? hi : lo);
-      if (!hole_next.emplace(b, a).second)
-        ambiguous.insert(b);
-      starts.push_back(b);
-    }
-    std::sort(starts.begin(), starts.end());
-    std::unordered_set<std::uint32_t> visited;
     std::size_t closed_loops = 0;
-    for (std::uint32_t s0 : starts)
+    for (std::vector<std::uint32_t>& loop : loops)
     {
-      if (visited.count(s0))
-        continue;
-      std::vector<std::uint32_t> loop;
-      std::uint32_t v = s0;
-      bool closed = false;
-      while (loop.size() <= max_edges)
-      {
-        if (ambiguous.count(v))
-          break;
-        visited.insert(v);
-        loop.push_back(v);
-        const auto it = hole_next.find(v);
-        if (it == hole_next.end())
-          break;
-        v = it->second;
-        if (v == s0)
-        {
-          closed = true;
-          break;
-        }
-        if (visited.count(v))
-          break;
-      }
-      if (!closed || loop.size() < 3 || loop.size() > max_edges)
-        continue;
       std::vector<Triangle> added;
       std::unordered_set<std::uint64_t> chords;
       // Newell normal of the loop, in the orientation the new triangles take: convex ears first, so
@@ -326,6 +455,224 @@ public:
     return closed_loops;
   }
 
+  /// The boundary loops of at most max_edges edges, each in the direction a triangle closing it
+  /// takes (an existing edge a → b gives the hole edge b → a), in a canonical order. A vertex with
+  /// two outgoing hole edges (two openings meeting at it) is ambiguous: loops through it are left
+  /// out.
+  std::vector<std::vector<std::uint32_t>> holeLoops(std::size_t max_edges) const
+  {
+    std::unordered_map<std::uint32_t, std::uint32_t> hole_next;
+    std::unordered_set<std::uint32_t> ambiguous;
+    std::vector<std::uint32_t> starts;
+    for (const auto& [key, u] : use_)
+    {
+      if (u.count != 1)
+        continue;
+      const auto lo = static_cast<std::uint32_t>(key >> 32), hi = static_cast<std::uint32_t>(key & 0xffffffffu);
+      const std::uint32_t a = u.from, b = (a == lo ? hi : lo);
+      if (!hole_next.emplace(b, a).second)
+        ambiguous.insert(b);
+      starts.push_back(b);
+    }
+    std::sort(starts.begin(), starts.end());
+    std::unordered_set<std::uint32_t> visited;
+    std::vector<std::vector<std::uint32_t>> loops;
+    for (std::uint32_t s0 : starts)
+    {
+      if (visited.count(s0))
+        continue;
+      std::vector<std::uint32_t> loop;
+      std::uint32_t v = s0;
+      bool closed = false;
+      while (loop.size() <= max_edges)
+      {
+        if (ambiguous.count(v))
+          break;
+        visited.insert(v);
+        loop.push_back(v);
+        const auto it = hole_next.find(v);
+        if (it == hole_next.end())
+          break;
+        v = it->second;
+        if (v == s0)
+        {
+          closed = true;
+          break;
+        }
+        if (visited.count(v))
+          break;
+      }
+      if (closed && loop.size() >= 3 && loop.size() <= max_edges)
+        loops.push_back(std::move(loop));
+    }
+    return loops;
+  }
+
+  /// A piece cut off from the surface around it by a strip of missing triangles is joined back:
+  /// two loops of different pieces that face each other (their vector areas, in the closing
+  /// direction, make an angle above 120°, and their centres are closer than the sum of their
+  /// radii) are joined by a band of triangles instead of being closed one by one. Every edge of the
+  /// band must stay within the gap guard and be new to the mesh; the band is zipped from the
+  /// closest pair of vertices, forward along one loop and backward along the other, each step taking
+  /// the shorter new edge. Pairs are tried nearest first, and two pieces are joined once: a band
+  /// never makes a handle (two loops of one piece, or of pieces already joined, are left to the
+  /// ear clipping), so it changes no genus. `loops` come from holeLoops; the joined ones are
+  /// taken out. Returns the number of pairs joined.
+  std::size_t stitchLoops(std::vector<std::vector<std::uint32_t>>& loops)
+  {
+    const auto& points = points_;
+    struct LoopShape
+    {
+      Eigen::Vector3d centre, area;
+      double radius;
+    };
+    std::vector<LoopShape> shape;
+    shape.reserve(loops.size());
+    for (const auto& loop : loops)
+    {
+      LoopShape ls{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 0.0};
+      for (std::size_t i = 0; i < loop.size(); ++i)
+      {
+        ls.centre += points[loop[i]];
+        ls.area += points[loop[i]].cross(points[loop[(i + 1) % loop.size()]]);
+      }
+      ls.centre /= static_cast<double>(loop.size());
+      for (std::uint32_t v : loop)
+        ls.radius = std::max(ls.radius, (points[v] - ls.centre).norm());
+      shape.push_back(ls);
+    }
+    std::vector<std::tuple<double, std::uint32_t, std::uint32_t>> pairs;
+    for (std::uint32_t i = 0; i < loops.size(); ++i)
+      for (std::uint32_t j = i + 1; j < loops.size(); ++j)
+      {
+        const LoopShape &a = shape[i], &b = shape[j];
+        const double d = (a.centre - b.centre).norm();
+        if (d > a.radius + b.radius || a.area.dot(b.area) > -0.5 * a.area.norm() * b.area.norm())
+          continue;
+        pairs.emplace_back(d, i, j);
+      }
+    std::sort(pairs.begin(), pairs.end());
+    // The pieces of the mesh as it is (through shared vertices). Loops on one piece start
+    // united: joining them would make a handle.
+    UnionFind pieces(loops.size());
+    {
+      UnionFind uf(points.size());
+      for (std::uint32_t t = 0; t < out_.size(); ++t)
+        if (keep_[t])
+        {
+          uf.unite(out_[t][0], out_[t][1]);
+          uf.unite(out_[t][0], out_[t][2]);
+        }
+      std::unordered_map<std::uint32_t, std::uint32_t> first_loop_of_piece;
+      for (std::uint32_t l = 0; l < loops.size(); ++l)
+      {
+        const auto [f, fresh] = first_loop_of_piece.emplace(uf.find(loops[l][0]), l);
+        if (!fresh)
+          pieces.unite(f->second, l);
+      }
+    }
+    std::vector<char> joined(loops.size(), 0);
+    std::size_t count = 0;
+    for (const auto& [d, i, j] : pairs)
+    {
+      if (joined[i] || joined[j] || pieces.find(i) == pieces.find(j))
+        continue;
+      std::vector<Triangle> band;
+      if (!zipBand(loops[i], loops[j], band))
+        continue;
+      for (const Triangle& tri : band)
+      {
+        out_.push_back(tri);
+        keep_.push_back(1);
+        addEdges(tri);
+        ++st_.stitched_triangles;
+      }
+      joined[i] = joined[j] = 1;
+      pieces.unite(i, j);
+      ++count;
+    }
+    std::size_t kept_loops = 0;
+    for (std::size_t l = 0; l < loops.size(); ++l)
+      if (!joined[l])
+      {
+        if (kept_loops != l)
+          loops[kept_loops] = std::move(loops[l]);
+        ++kept_loops;
+      }
+    loops.resize(kept_loops);
+    return count;
+  }
+
+private:
+  /// The band between loops a and b (both in the closing direction, turning opposite ways): false,
+  /// and nothing made, when an edge it needs exists already or is longer than the gap guard allows.
+  bool zipBand(const std::vector<std::uint32_t>& a, const std::vector<std::uint32_t>& b,
+               std::vector<Triangle>& band) const
+  {
+    const auto& points = points_;
+    const std::size_t n = a.size(), m = b.size();
+    std::size_t i0 = 0, j0 = 0;
+    double best = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t j = 0; j < m; ++j)
+      {
+        const double d = (points[a[i]] - points[b[j]]).squaredNorm();
+        if (d < best)
+        {
+          best = d;
+          i0 = i;
+          j0 = j;
+        }
+      }
+    auto A = [&](std::size_t i) { return a[(i0 + i) % n]; };
+    auto B = [&](std::size_t j) { return b[(j0 + m - j % m) % m]; };  // backward along b
+    const double guard = params_.max_edge_ratio;
+    std::unordered_set<std::uint64_t> chords;
+    auto chordOk = [&](std::uint32_t x, std::uint32_t y) {
+      const std::uint64_t key = edgeKey(x, y);
+      if (use_.count(key) || chords.count(key))
+        return false;
+      if (guard > 0)
+      {
+        const double local = std::max(spacing_[x], spacing_[y]);
+        if ((points[x] - points[y]).squaredNorm() > guard * guard * local * local)
+          return false;
+      }
+      return true;
+    };
+    if (!chordOk(A(0), B(0)))
+      return false;
+    chords.insert(edgeKey(A(0), B(0)));
+    std::size_t i = 0, j = 0;
+    while (i < n || j < m)
+    {
+      bool advance_a;
+      if (i == n)
+        advance_a = false;
+      else if (j == m)
+        advance_a = true;
+      else
+        advance_a = (points[A(i + 1)] - points[B(j)]).squaredNorm() <= (points[A(i)] - points[B(j + 1)]).squaredNorm();
+      const std::uint32_t x = advance_a ? A(i + 1) : A(i), y = advance_a ? B(j) : B(j + 1);
+      const bool last = (advance_a ? i + 1 == n && j == m : i == n && j + 1 == m);
+      if (!last && !chordOk(x, y))
+        return false;
+      chords.insert(edgeKey(x, y));
+      if (advance_a)
+      {
+        band.push_back({A(i), A(i + 1), B(j)});
+        ++i;
+      }
+      else
+      {
+        band.push_back({B(j + 1), B(j), A(i)});
+        ++j;
+      }
+    }
+    return true;
+  }
+
+public:
 private:
   struct EdgeUse
   {
@@ -393,12 +740,17 @@ std::vector<Triangle> cleanUp(const std::vector<Eigen::Vector3d>& points, const 
 {
   std::vector<Triangle>& out = walked.out;
   std::vector<char> keep = keepManifold(out, points.size());
+  st.reoriented_pieces = orientPieces(points, spacing, out, keep);
   MeshFill fill(points, spacing, params, out, keep, st);
   fill.fillNotches(cand, alive, edges, walked.order);
   if (params.fill_hole_edges >= 3)
-    fill.closeLoops(params.fill_hole_edges, true);
+  {
+    std::vector<std::vector<std::uint32_t>> loops = fill.holeLoops(params.fill_hole_edges);
+    st.stitched_loops = fill.stitchLoops(loops);
+    fill.closeLoops(std::move(loops), true);
+  }
   if (params.watertight)
-    st.sealed_loops = fill.closeLoops(std::numeric_limits<std::size_t>::max() - 1, false);
+    st.sealed_loops = fill.closeLoops(fill.holeLoops(std::numeric_limits<std::size_t>::max() - 1), false);
   return keepLargeComponents(out, keep, params, st);
 }
 

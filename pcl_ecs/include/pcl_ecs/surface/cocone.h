@@ -18,9 +18,11 @@
 //      edge is kept: removing those would erode a noisy surface from every small hole.
 //   6. Extraction: a walk from a hull triangle oriented outwards; across each edge the walk takes
 //      the first triangle met when turning towards the outside, oriented consistently.
-//   7. Clean-up: an edge keeps at most two triangles, a vertex keeps its largest fan of triangles,
-//      so the result is an oriented 2-manifold (possibly with boundary); notches and holes of a few
-//      edges are closed (candidates first, then ear clipping).
+//   7. Clean-up: a piece walked from a seed off the hull takes the orientation of the surface
+//      around it; an edge keeps at most two triangles, a vertex keeps its largest fan of triangles,
+//      so the result is an oriented 2-manifold (possibly with boundary); notches are closed with
+//      candidates, two loops facing each other across a missing strip are joined by a band, and
+//      the other holes are closed by ear clipping.
 //   8. Optional watertight closing: every remaining boundary loop is sealed.
 #pragma once
 
@@ -96,6 +98,9 @@ struct CoconeStats
   std::size_t extracted_triangles = 0;
   std::size_t cleanup_removed_triangles = 0;
   std::size_t filled_triangles = 0;  ///< candidates added afterwards to close notches and small holes
+  std::size_t reoriented_pieces = 0;  ///< pieces after the first reversed to agree with the surface around them
+  std::size_t stitched_loops = 0;     ///< pairs of facing boundary loops joined by a band
+  std::size_t stitched_triangles = 0; ///< triangles of those bands
   std::size_t components = 0;
   std::size_t sealed_loops = 0;  ///< boundary loops sealed by the watertight option
   std::size_t triangles = 0;       ///< in the output
