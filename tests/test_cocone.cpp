@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numeric>
 #include <set>
 #ifdef _OPENMP
 #include <omp.h>
@@ -364,6 +365,134 @@ TEST(CoconePcl, DegenerateInputGivesAnEmptyMesh)
   cocone.reconstruct(mesh);
   EXPECT_TRUE(mesh.polygons.empty());
   EXPECT_NE(cocone.getLastError().find("cocone angle"), std::string::npos);
+}
+
+// ---- the clean-up step on meshes made by hand -------------------------------------------------------
+
+#include "surface/cocone_detail.h"  // private: the clean-up step alone
+
+namespace
+{
+/// A UV sphere of radius 1 about the origin: `rings` rings of `segments` points between the poles
+/// (point 0 the north pole, the last the south pole), triangles facing out, listed ring band by
+/// ring band from the north (band b joins ring b − 1 and ring b; band 0 is the north fan).
+struct UvSphere
+{
+  std::vector<Eigen::Vector3d> points;
+  std::vector<std::vector<Triangle>> bands;
+};
+
+UvSphere uvSphere(int rings, int segments)
+{
+  UvSphere s;
+  const double pi = 3.14159265358979323846;
+  s.points.emplace_back(0, 0, 1);
+  for (int r = 1; r <= rings; ++r)
+  {
+    const double theta = pi * r / (rings + 1);
+    for (int k = 0; k < segments; ++k)
+    {
+      const double phi = 2 * pi * k / segments;
+      s.points.emplace_back(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+    }
+  }
+  s.points.emplace_back(0, 0, -1);
+  auto at = [&](int r, int k) { return static_cast<std::uint32_t>(1 + (r - 1) * segments + (k % segments)); };
+  const auto south = static_cast<std::uint32_t>(s.points.size() - 1);
+  s.bands.resize(rings + 1);
+  for (int k = 0; k < segments; ++k)
+    s.bands[0].push_back({0, at(1, k), at(1, k + 1)});
+  for (int r = 2; r <= rings; ++r)
+    for (int k = 0; k < segments; ++k)
+    {
+      s.bands[r - 1].push_back({at(r - 1, k), at(r, k), at(r, k + 1)});
+      s.bands[r - 1].push_back({at(r - 1, k), at(r, k + 1), at(r - 1, k + 1)});
+    }
+  for (int k = 0; k < segments; ++k)
+    s.bands[rings].push_back({south, at(rings, k + 1), at(rings, k)});
+  return s;
+}
+
+/// Runs the clean-up step on `walked` triangles (also the candidates), with the given spacing.
+std::vector<Triangle> cleanUpOnly(const std::vector<Eigen::Vector3d>& points, double spacing,
+                                  std::vector<Triangle> walked, pcl_ecs::surface::CoconeStats& st)
+{
+  namespace d = pcl_ecs::surface::detail;
+  const std::vector<Triangle> cand = walked;
+  const std::vector<char> alive(cand.size(), 1);
+  const d::EdgeIndex edges(cand);
+  d::Extraction ex;
+  ex.out = std::move(walked);
+  ex.order.resize(ex.out.size());
+  std::iota(ex.order.begin(), ex.order.end(), 0u);
+  const std::vector<double> sp(points.size(), spacing);
+  return d::cleanUp(points, sp, CoconeParameters(), cand, alive, edges, ex, st);
+}
+
+/// Every triangle faces away from the origin (the sphere's outside).
+bool facesOut(const std::vector<Eigen::Vector3d>& p, const std::vector<Triangle>& tris)
+{
+  for (const Triangle& t : tris)
+  {
+    const Eigen::Vector3d n = (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]);
+    if (n.dot(p[t[0]] + p[t[1]] + p[t[2]]) <= 0)
+      return false;
+  }
+  return true;
+}
+}  // namespace
+
+TEST(CoconeCleanUp, APieceInsideOutIsTurnedAndJoinedBack)
+{
+  // A sphere whose walk lost the band of triangles between its 2nd and 3rd rings and came back onto
+  // the northern cap upside down: the cap takes the body's orientation and the two loops that face
+  // each other across the band are joined by a band of 2 × 48 triangles: the closed sphere again.
+  const UvSphere s = uvSphere(20, 48);
+  std::vector<Triangle> walked;
+  for (std::size_t b = 4; b < s.bands.size(); ++b)  // the body first (the walk starts at the hull)
+    walked.insert(walked.end(), s.bands[b].begin(), s.bands[b].end());
+  for (std::size_t b = 0; b < 3; ++b)  // the cap, reversed
+    for (Triangle t : s.bands[b])
+    {
+      std::swap(t[1], t[2]);
+      walked.push_back(t);
+    }
+  pcl_ecs::surface::CoconeStats st;
+  const double spacing = 2 * 3.14159265358979323846 / 48;  // the ring's edge at the equator
+  const std::vector<Triangle> mesh = cleanUpOnly(s.points, spacing, walked, st);
+  const MeshTopology t = analyzeTopology(s.points.size(), mesh);
+  EXPECT_TRUE(t.isClosedManifold());
+  EXPECT_EQ(t.euler_characteristic, 2);
+  EXPECT_EQ(t.components, 1u);
+  EXPECT_EQ(t.used_vertices, s.points.size());
+  EXPECT_TRUE(facesOut(s.points, mesh));
+  EXPECT_EQ(st.reoriented_pieces, 1u);
+  EXPECT_EQ(st.stitched_loops, 1u);
+  EXPECT_EQ(st.stitched_triangles, 2u * 48u);
+  EXPECT_EQ(st.filled_triangles, 0u);
+}
+
+TEST(CoconeCleanUp, TwoLoopsOfOnePieceAreClosedNotJoined)
+{
+  // The belt of a sphere between its 5th and 8th rings of 12: one piece with two loops that face
+  // each other (their vector areas point opposite ways, their centres 0.71 apart, closer than the
+  // sum of their radii, 1.87). With
+  // a spacing so large that the gap guard allows a band between them, joining them would make a
+  // handle (a tube through the sphere, χ 0); each is closed on its own instead (χ 2).
+  const UvSphere s = uvSphere(12, 24);
+  std::vector<Triangle> walked;
+  for (std::size_t b = 6; b <= 8; ++b)
+    walked.insert(walked.end(), s.bands[b].begin(), s.bands[b].end());
+  pcl_ecs::surface::CoconeStats st;
+  const std::vector<Triangle> mesh = cleanUpOnly(s.points, 1.0, walked, st);
+  const MeshTopology t = analyzeTopology(s.points.size(), mesh);
+  EXPECT_TRUE(t.isClosedManifold());
+  EXPECT_EQ(t.euler_characteristic, 2);
+  EXPECT_EQ(t.components, 1u);
+  EXPECT_TRUE(facesOut(s.points, mesh));
+  EXPECT_EQ(st.stitched_loops, 0u);
+  EXPECT_EQ(st.reoriented_pieces, 0u);
+  EXPECT_GT(st.filled_triangles, 0u);
 }
 
 // ---- a real scan ---------------------------------------------------------------------------------
