@@ -2,8 +2,6 @@
 // notches and holes closed, loops sealed when asked, small components dropped.
 #include "cocone_detail.h"
 
-#include <cstdlib>
-#include <cstdio>
 #include <deque>
 #include <unordered_map>
 #include <unordered_set>
@@ -106,12 +104,36 @@ std::size_t orientPieces(const std::vector<Eigen::Vector3d>& points, const std::
   auto keyOf = [](int x, int y, int z) {
     return (static_cast<std::uint64_t>(x) << 42) | (static_cast<std::uint64_t>(y) << 21) | static_cast<std::uint64_t>(z);
   };
+  auto radiusAt = [&](std::uint32_t p) { return std::min(3 * spacing[p], 3 * h); };
+  // Only the cells within reach of a later piece's vertices are looked at: the grid holds the
+  // vertices in those cells ("near"), and only their settled normals are needed.
+  std::vector<std::uint64_t> wanted;
+  for (std::uint32_t k = first[1]; k < first[pieces]; ++k)
+    for (std::uint32_t p : out[member[k]])
+    {
+      const double r = radiusAt(p);
+      if (!(r > 0))
+        continue;
+      const Eigen::Vector3i c0 = cellOf(points[p] - Eigen::Vector3d::Constant(r)),
+                            c1 = cellOf(points[p] + Eigen::Vector3d::Constant(r));
+      for (int x = std::max(c0.x(), 0); x <= c1.x(); ++x)
+        for (int y = std::max(c0.y(), 0); y <= c1.y(); ++y)
+          for (int z = std::max(c0.z(), 0); z <= c1.z(); ++z)
+            wanted.push_back(keyOf(x, y, z));
+    }
+  std::sort(wanted.begin(), wanted.end());
+  wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
+  std::vector<char> near(n, 0);
   std::vector<std::pair<std::uint64_t, std::uint32_t>> grid;
-  grid.reserve(used.size());
   for (std::uint32_t x : used)
   {
     const Eigen::Vector3i c = cellOf(points[x]);
-    grid.emplace_back(keyOf(c.x(), c.y(), c.z()), x);
+    const std::uint64_t key = keyOf(c.x(), c.y(), c.z());
+    if (std::binary_search(wanted.begin(), wanted.end(), key))
+    {
+      grid.emplace_back(key, x);
+      near[x] = 1;
+    }
   }
   // By cell, stably (the vertices of a cell in order of first use: a fixed order of the votes).
   radixSortStable(grid, [](const std::pair<std::uint64_t, std::uint32_t>& g) { return g.first; });
@@ -125,6 +147,8 @@ std::size_t orientPieces(const std::vector<Eigen::Vector3d>& points, const std::
     for (std::uint32_t k = first[c]; k < first[c + 1]; ++k)
     {
       const std::uint32_t t = member[k];
+      if (c == 0 && !near[out[t][0]] && !near[out[t][1]] && !near[out[t][2]])
+        continue;  // the first piece's normals are only looked up near the others
       const Eigen::Vector3d nrm = (points[out[t][1]] - points[out[t][0]]).cross(points[out[t][2]] - points[out[t][0]]);
       for (std::uint32_t x : out[t])
       {
@@ -141,7 +165,7 @@ std::size_t orientPieces(const std::vector<Eigen::Vector3d>& points, const std::
         if (own[p].isZero())
           continue;
         const Eigen::Vector3d np = own[p].normalized();
-        const double r = std::min(3 * spacing[p], 3 * h);
+        const double r = radiusAt(p);
         if (!(r > 0))
           continue;
         const Eigen::Vector3i c0 = cellOf(points[p] - Eigen::Vector3d::Constant(r)),
@@ -541,16 +565,29 @@ public:
         ls.radius = std::max(ls.radius, (points[v] - ls.centre).norm());
       shape.push_back(ls);
     }
+    // Candidate pairs: centres closer than the sum of the radii, so their spans along x overlap;
+    // a sweep over the loops by the start of that span finds them without looking at all pairs.
+    std::vector<std::uint32_t> by_start(loops.size());
+    std::iota(by_start.begin(), by_start.end(), 0u);
+    auto start = [&](std::uint32_t l) { return shape[l].centre.x() - shape[l].radius; };
+    std::sort(by_start.begin(), by_start.end(), [&](std::uint32_t x, std::uint32_t y) {
+      return start(x) < start(y) || (start(x) == start(y) && x < y);
+    });
     std::vector<std::tuple<double, std::uint32_t, std::uint32_t>> pairs;
-    for (std::uint32_t i = 0; i < loops.size(); ++i)
-      for (std::uint32_t j = i + 1; j < loops.size(); ++j)
+    for (std::size_t u = 0; u < by_start.size(); ++u)
+    {
+      const std::uint32_t i = by_start[u];
+      const double end = shape[i].centre.x() + shape[i].radius;
+      for (std::size_t w = u + 1; w < by_start.size() && start(by_start[w]) <= end; ++w)
       {
+        const std::uint32_t j = by_start[w];
         const LoopShape &a = shape[i], &b = shape[j];
         const double d = (a.centre - b.centre).norm();
         if (d > a.radius + b.radius || a.area.dot(b.area) > -0.5 * a.area.norm() * b.area.norm())
           continue;
-        pairs.emplace_back(d, i, j);
+        pairs.emplace_back(d, std::min(i, j), std::max(i, j));
       }
+    }
     std::sort(pairs.begin(), pairs.end());
     // The pieces of the mesh as it is (through shared vertices). Loops on one piece start
     // united: joining them would make a handle.
