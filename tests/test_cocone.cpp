@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <numeric>
+#include <map>
 #include <set>
 #ifdef _OPENMP
 #include <omp.h>
@@ -493,6 +494,102 @@ TEST(CoconeCleanUp, TwoLoopsOfOnePieceAreClosedNotJoined)
   EXPECT_EQ(st.stitched_loops, 0u);
   EXPECT_EQ(st.reoriented_pieces, 0u);
   EXPECT_GT(st.filled_triangles, 0u);
+}
+
+TEST(CoconeCleanUp, EarClippedTrianglesAreFlippedToFollowTheSurface)
+{
+  // A hole of 4 bands × 6 segments cut out of a UV sphere: its loop is not planar, and the ear
+  // clipping (shortest chord first) leaves diagonals that bend the fill more than the other
+  // diagonal of their quad would. After the flips no edge between two fill triangles can be
+  // flipped to bend the surface less (checked here independently, on the five angles a flip
+  // changes; without the flips this fails on several edges). The flips do not undo a fold the clipping
+  // made (a reflex ear over its neighbours): a fill triangle here faces in either way.
+  const UvSphere s = uvSphere(16, 32);
+  std::vector<Triangle> walked;
+  std::set<std::array<std::uint32_t, 3>> removed;
+  for (std::size_t b = 0; b < s.bands.size(); ++b)
+    for (std::size_t i = 0; i < s.bands[b].size(); ++i)
+    {
+      const bool hole = b >= 5 && b <= 8 && (i / 2) < 6;  // 6 segments of 4 bands
+      if (hole)
+        removed.insert(s.bands[b][i]);
+      else
+        walked.push_back(s.bands[b][i]);
+    }
+  auto key = [](Triangle t) {
+    std::sort(t.begin(), t.end());
+    return t;
+  };
+  std::set<Triangle> walked_set;
+  for (const Triangle& t : walked)
+    walked_set.insert(key(t));
+  pcl_ecs::surface::CoconeStats st;
+  const std::vector<Triangle> mesh = cleanUpOnly(s.points, 1.0, walked, st);
+  const MeshTopology t = analyzeTopology(s.points.size(), mesh);
+  ASSERT_TRUE(t.isClosedManifold());
+  EXPECT_EQ(t.euler_characteristic, 2);
+  EXPECT_GT(st.filled_triangles, 0u);
+  EXPECT_GT(st.flipped_edges, 0u);
+  const auto& p = s.points;
+  auto unit = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+    return (p[b] - p[a]).cross(p[c] - p[a]).normalized().eval();
+  };
+  // Edge → triangles of the result.
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<std::size_t>> at;
+  for (std::size_t i = 0; i < mesh.size(); ++i)
+    for (int k = 0; k < 3; ++k)
+      at[{std::min(mesh[i][k], mesh[i][(k + 1) % 3]), std::max(mesh[i][k], mesh[i][(k + 1) % 3])}].push_back(i);
+  auto other = [&](std::uint32_t a, std::uint32_t b, std::size_t tri) -> const Triangle* {
+    const auto& v = at.at({std::min(a, b), std::max(a, b)});
+    for (std::size_t x : v)
+      if (x != tri)
+        return &mesh[x];
+    return nullptr;
+  };
+  auto bend = [&](const Eigen::Vector3d& n, const Triangle* o) {
+    return o ? 1 - n.dot(unit((*o)[0], (*o)[1], (*o)[2])) : 0.0;
+  };
+  std::size_t fill_edges = 0;
+  double depth = 0;
+  std::size_t fills = 0;
+  for (std::size_t i = 0; i < mesh.size(); ++i)
+  {
+    if (walked_set.count(key(mesh[i])))
+      continue;
+    ++fills;
+    depth += 1 - ((p[mesh[i][0]] + p[mesh[i][1]] + p[mesh[i][2]]) / 3).norm();
+    for (int k = 0; k < 3; ++k)
+    {
+      const std::uint32_t a = mesh[i][k], b = mesh[i][(k + 1) % 3];
+      const auto& v = at.at({std::min(a, b), std::max(a, b)});
+      const std::size_t j = v[0] == i ? v[1] : v[0];
+      if (j < i || walked_set.count(key(mesh[j])))
+        continue;
+      ++fill_edges;
+      const std::uint32_t c = mesh[i][(k + 2) % 3];
+      std::uint32_t d = mesh[j][0];
+      for (std::uint32_t x : mesh[j])
+        if (x != a && x != b)
+          d = x;
+      if (at.count({std::min(c, d), std::max(c, d)}))
+        continue;  // the other diagonal is in the mesh already
+      const Eigen::Vector3d n1 = unit(a, b, c), n2 = unit(b, a, d), m1 = unit(c, a, d), m2 = unit(d, b, c);
+      const Triangle *nbc = other(b, c, i), *nca = other(c, a, i), *nad = other(a, d, j), *ndb = other(d, b, j);
+      const double now = bend(n1, nbc) + bend(n1, nca) + bend(n2, nad) + bend(n2, ndb) + (1 - n1.dot(n2));
+      const double flipped = bend(m2, nbc) + bend(m1, nca) + bend(m1, nad) + bend(m2, ndb) + (1 - m1.dot(m2));
+      EXPECT_GE(flipped, now - 1e-9) << "edge " << a << "-" << b << " would bend the fill less flipped";
+    }
+  }
+  EXPECT_EQ(fills, st.filled_triangles);
+  EXPECT_GT(fill_edges, 0u);
+  // For the record: the fill spans the hole without its inner points, so it lies deeper than the
+  // sphere's own triangles did.
+  double ref_depth = 0;
+  for (const Triangle& r : removed)
+    ref_depth += 1 - ((p[r[0]] + p[r[1]] + p[r[2]]) / 3).norm();
+  ref_depth /= static_cast<double>(removed.size());
+  std::printf("fill: %zu triangles, %zu flips, mean centroid depth %.4g (the sphere's own triangles %.4g)\n", fills,
+              st.flipped_edges, depth / static_cast<double>(fills), ref_depth);
 }
 
 // ---- a real scan ---------------------------------------------------------------------------------

@@ -153,6 +153,7 @@ nlohmann::json meshStatsJson(const MeshRun& run, const surface::CoconeParameters
                  {"reoriented_pieces", s.reoriented_pieces},
                  {"stitched_loops", s.stitched_loops},
                  {"stitched_triangles", s.stitched_triangles},
+                 {"flipped_edges", s.flipped_edges},
                  {"cleanup_removed_triangles", s.cleanup_removed_triangles},
                  {"sealed_loops", s.sealed_loops},
                  {"triangles", s.triangles},

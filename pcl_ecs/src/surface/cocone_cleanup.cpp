@@ -102,7 +102,8 @@ std::size_t orientPieces(const std::vector<Eigen::Vector3d>& points, const std::
                            static_cast<int>((p.z() - lo.z()) / h));
   };
   auto keyOf = [](int x, int y, int z) {
-    return (static_cast<std::uint64_t>(x) << 42) | (static_cast<std::uint64_t>(y) << 21) | static_cast<std::uint64_t>(z);
+    return (static_cast<std::uint64_t>(x) << 42) | (static_cast<std::uint64_t>(y) << 21) |
+           static_cast<std::uint64_t>(z);
   };
   auto radiusAt = [&](std::uint32_t p) { return std::min(3 * spacing[p], 3 * h); };
   // Only the cells within reach of a later piece's vertices are looked at: the grid holds the
@@ -175,8 +176,9 @@ std::size_t orientPieces(const std::vector<Eigen::Vector3d>& points, const std::
             for (int z = std::max(c0.z(), 0); z <= c1.z(); ++z)
             {
               const std::uint64_t key = keyOf(x, y, z);
-              auto it = std::lower_bound(grid.begin(), grid.end(), key,
-                                         [](const std::pair<std::uint64_t, std::uint32_t>& g, std::uint64_t k) { return g.first < k; });
+              auto it = std::lower_bound(
+                  grid.begin(), grid.end(), key,
+                  [](const std::pair<std::uint64_t, std::uint32_t>& g, std::uint64_t k) { return g.first < k; });
               for (; it != grid.end() && it->first == key; ++it)
               {
                 const std::uint32_t q = it->second;
@@ -469,6 +471,7 @@ public:
       added.push_back({loop[0], loop[1], loop[2]});
       for (const Triangle& tri : added)
       {
+        clipped_.push_back(static_cast<std::uint32_t>(out.size()));
         out.push_back(tri);
         keep.push_back(1);
         addEdges(tri);
@@ -710,6 +713,123 @@ private:
   }
 
 public:
+  /// The ear clipping's triangles smoothed by edge flips: an edge between two of them is flipped
+  /// when the other diagonal of their quad bends the surface less, measured as the sum of
+  /// (1 − cos) of the angles between the normals across the five edges the flip changes (the
+  /// diagonal and the quad's four sides), and the new edge is not in the mesh and within the gap
+  /// guard. Each flip lowers that sum over the mesh, so the flips stop. Returns the flips made.
+  std::size_t flipClipped()
+  {
+    const auto& points = points_;
+    auto& out = out_;
+    std::vector<char> clipped(out.size(), 0), at_fill(points.size(), 0);
+    for (std::uint32_t t : clipped_)
+      if (keep_[t])
+      {
+        clipped[t] = 1;
+        for (std::uint32_t x : out[t])
+          at_fill[x] = 1;
+      }
+    // The triangles (at most two) at each edge of a triangle touching the fills.
+    std::unordered_map<std::uint64_t, std::array<std::uint32_t, 2>> at;
+    for (std::uint32_t t = 0; t < out.size(); ++t)
+    {
+      if (!keep_[t] || !(at_fill[out[t][0]] || at_fill[out[t][1]] || at_fill[out[t][2]]))
+        continue;
+      for (int k = 0; k < 3; ++k)
+      {
+        auto [it, fresh] = at.emplace(edgeKey(out[t][k], out[t][(k + 1) % 3]), std::array<std::uint32_t, 2>{t, kNone});
+        if (!fresh)
+          it->second[1] = t;
+      }
+    }
+    auto normal = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+      return (points[b] - points[a]).cross(points[c] - points[a]).normalized().eval();
+    };
+    auto across = [&](std::uint32_t a, std::uint32_t b, std::uint32_t t) -> std::uint32_t {
+      const auto it = at.find(edgeKey(a, b));
+      if (it == at.end())
+        return kNone;
+      return it->second[0] == t ? it->second[1] : it->second[0];
+    };
+    auto bend = [&](const Eigen::Vector3d& n, std::uint32_t other) {
+      if (other == kNone)
+        return 0.0;
+      const Triangle& o = out[other];
+      return 1 - n.dot(normal(o[0], o[1], o[2]));
+    };
+    const double guard = params_.max_edge_ratio;
+    std::deque<std::uint64_t> work;
+    for (const auto& [key, tris] : at)
+      if (tris[1] != kNone && clipped[tris[0]] && clipped[tris[1]])
+        work.push_back(key);
+    std::sort(work.begin(), work.end());
+    std::size_t flips = 0;
+    const std::size_t max_flips = 10 * clipped_.size() + 16;
+    while (!work.empty() && flips < max_flips)
+    {
+      const std::uint64_t key = work.front();
+      work.pop_front();
+      const auto it = at.find(key);
+      if (it == at.end() || it->second[1] == kNone)
+        continue;
+      const std::uint32_t t1 = it->second[0], t2 = it->second[1];
+      if (!clipped[t1] || !clipped[t2])
+        continue;
+      // t1 = (a, b, c) runs a → b; t2 = (b, a, d).
+      const auto ea = static_cast<std::uint32_t>(key >> 32), eb = static_cast<std::uint32_t>(key & 0xffffffffu);
+      std::uint32_t a = ea, b = eb;
+      {
+        bool forward = false;
+        for (int k = 0; k < 3; ++k)
+          if (out[t1][k] == ea && out[t1][(k + 1) % 3] == eb)
+            forward = true;
+        if (!forward)
+          std::swap(a, b);
+      }
+      const std::uint32_t c = apex(out[t1], a, b), d = apex(out[t2], a, b);
+      if (c == d || use_.count(edgeKey(c, d)))
+        continue;
+      if (guard > 0)
+      {
+        const double local = std::max(spacing_[c], spacing_[d]);
+        if ((points[c] - points[d]).squaredNorm() > guard * guard * local * local)
+          continue;
+      }
+      const Eigen::Vector3d m1u = (points[a] - points[c]).cross(points[d] - points[c]),
+                            m2u = (points[b] - points[d]).cross(points[c] - points[d]);
+      if (m1u.squaredNorm() <= 0 || m2u.squaredNorm() <= 0)
+        continue;
+      const Eigen::Vector3d n1 = normal(a, b, c), n2 = normal(b, a, d), m1 = m1u.normalized(), m2 = m2u.normalized();
+      const std::uint32_t nbc = across(b, c, t1), nca = across(c, a, t1);
+      const std::uint32_t nad = across(a, d, t2), ndb = across(d, b, t2);
+      const double before = bend(n1, nbc) + bend(n1, nca) + bend(n2, nad) + bend(n2, ndb) + (1 - n1.dot(n2));
+      const double after = bend(m2, nbc) + bend(m1, nca) + bend(m1, nad) + bend(m2, ndb) + (1 - m1.dot(m2));
+      if (!(after < before - 1e-12))
+        continue;
+      out[t1] = {c, a, d};
+      out[t2] = {d, b, c};
+      at.erase(key);
+      at[edgeKey(c, d)] = {t1, t2};
+      auto retarget = [&](std::uint32_t x, std::uint32_t y, std::uint32_t from, std::uint32_t to) {
+        auto& e = at[edgeKey(x, y)];
+        for (std::uint32_t& s : e)
+          if (s == from)
+            s = to;
+      };
+      retarget(b, c, t1, t2);
+      retarget(a, d, t2, t1);
+      use_.erase(key);
+      EdgeUse& u = use_[edgeKey(c, d)];
+      u.count = 2;
+      u.from = c;
+      ++flips;
+      for (const auto& [x, y] : {std::pair<std::uint32_t, std::uint32_t>{b, c}, {c, a}, {a, d}, {d, b}})
+        work.push_back(edgeKey(x, y));
+    }
+    return flips;
+  }
+
 private:
   struct EdgeUse
   {
@@ -733,6 +853,7 @@ private:
   std::vector<char>& keep_;
   CoconeStats& st_;
   std::unordered_map<std::uint64_t, EdgeUse> use_;
+  std::vector<std::uint32_t> clipped_;  // triangles made by the ear clipping, in order
 };
 
 /// Step 7, last part: the components (through shared edges) of what is kept; those of fewer than
@@ -788,6 +909,7 @@ std::vector<Triangle> cleanUp(const std::vector<Eigen::Vector3d>& points, const 
   }
   if (params.watertight)
     st.sealed_loops = fill.closeLoops(fill.holeLoops(std::numeric_limits<std::size_t>::max() - 1), false);
+  st.flipped_edges = fill.flipClipped();
   return keepLargeComponents(out, keep, params, st);
 }
 

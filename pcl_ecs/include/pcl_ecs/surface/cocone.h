@@ -22,7 +22,8 @@
 //      around it; an edge keeps at most two triangles, a vertex keeps its largest fan of triangles,
 //      so the result is an oriented 2-manifold (possibly with boundary); notches are closed with
 //      candidates, two loops facing each other across a missing strip are joined by a band, and
-//      the other holes are closed by ear clipping.
+//      the other holes are closed by ear clipping, whose triangles are then flipped where the other
+//      diagonal bends the surface less.
 //   8. Optional watertight closing: every remaining boundary loop is sealed.
 #pragma once
 
@@ -101,6 +102,7 @@ struct CoconeStats
   std::size_t reoriented_pieces = 0;  ///< pieces after the first reversed to agree with the surface around them
   std::size_t stitched_loops = 0;     ///< pairs of facing boundary loops joined by a band
   std::size_t stitched_triangles = 0; ///< triangles of those bands
+  std::size_t flipped_edges = 0;      ///< edges between ear-clipped triangles flipped to bend the surface less
   std::size_t components = 0;
   std::size_t sealed_loops = 0;  ///< boundary loops sealed by the watertight option
   std::size_t triangles = 0;       ///< in the output
