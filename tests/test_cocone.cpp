@@ -430,6 +430,15 @@ std::vector<Triangle> cleanUpOnly(const std::vector<Eigen::Vector3d>& points, do
   return d::cleanUp(points, sp, CoconeParameters(), cand, alive, edges, ex, st);
 }
 
+/// The mesh is one closed 2-manifold of a sphere's topology (χ 2) over the sphere's points.
+void expectOneClosedSphere(const std::vector<Eigen::Vector3d>& points, const std::vector<Triangle>& mesh)
+{
+  const MeshTopology t = analyzeTopology(points.size(), mesh);
+  EXPECT_TRUE(t.isClosedManifold());
+  EXPECT_EQ(t.euler_characteristic, 2);
+  EXPECT_EQ(t.components, 1u);
+}
+
 /// Every triangle faces away from the origin (the sphere's outside).
 bool facesOut(const std::vector<Eigen::Vector3d>& p, const std::vector<Triangle>& tris)
 {
@@ -461,11 +470,8 @@ TEST(CoconeCleanUp, APieceInsideOutIsTurnedAndJoinedBack)
   pcl_ecs::surface::CoconeStats st;
   const double spacing = 2 * 3.14159265358979323846 / 48;  // the ring's edge at the equator
   const std::vector<Triangle> mesh = cleanUpOnly(s.points, spacing, walked, st);
-  const MeshTopology t = analyzeTopology(s.points.size(), mesh);
-  EXPECT_TRUE(t.isClosedManifold());
-  EXPECT_EQ(t.euler_characteristic, 2);
-  EXPECT_EQ(t.components, 1u);
-  EXPECT_EQ(t.used_vertices, s.points.size());
+  expectOneClosedSphere(s.points, mesh);
+  EXPECT_EQ(analyzeTopology(s.points.size(), mesh).used_vertices, s.points.size());
   EXPECT_TRUE(facesOut(s.points, mesh));
   EXPECT_EQ(st.reoriented_pieces, 1u);
   EXPECT_EQ(st.stitched_loops, 1u);
@@ -486,10 +492,7 @@ TEST(CoconeCleanUp, TwoLoopsOfOnePieceAreClosedNotJoined)
     walked.insert(walked.end(), s.bands[b].begin(), s.bands[b].end());
   pcl_ecs::surface::CoconeStats st;
   const std::vector<Triangle> mesh = cleanUpOnly(s.points, 1.0, walked, st);
-  const MeshTopology t = analyzeTopology(s.points.size(), mesh);
-  EXPECT_TRUE(t.isClosedManifold());
-  EXPECT_EQ(t.euler_characteristic, 2);
-  EXPECT_EQ(t.components, 1u);
+  expectOneClosedSphere(s.points, mesh);
   EXPECT_TRUE(facesOut(s.points, mesh));
   EXPECT_EQ(st.stitched_loops, 0u);
   EXPECT_EQ(st.reoriented_pieces, 0u);
@@ -525,9 +528,8 @@ TEST(CoconeCleanUp, EarClippedTrianglesAreFlippedToFollowTheSurface)
     walked_set.insert(key(t));
   pcl_ecs::surface::CoconeStats st;
   const std::vector<Triangle> mesh = cleanUpOnly(s.points, 1.0, walked, st);
-  const MeshTopology t = analyzeTopology(s.points.size(), mesh);
-  ASSERT_TRUE(t.isClosedManifold());
-  EXPECT_EQ(t.euler_characteristic, 2);
+  expectOneClosedSphere(s.points, mesh);
+  ASSERT_TRUE(analyzeTopology(s.points.size(), mesh).isClosedManifold());  // the edge map below needs it
   EXPECT_GT(st.filled_triangles, 0u);
   EXPECT_GT(st.flipped_edges, 0u);
   const auto& p = s.points;

@@ -106,22 +106,24 @@ std::size_t orientPieces(const std::vector<Eigen::Vector3d>& points, const std::
            static_cast<std::uint64_t>(z);
   };
   auto radiusAt = [&](std::uint32_t p) { return std::min(3 * spacing[p], 3 * h); };
+  // The keys of the cells within radiusAt(p) of vertex p (none for a radius that is not positive).
+  auto forCellsNear = [&](std::uint32_t p, auto&& visit) {
+    const double r = radiusAt(p);
+    if (!(r > 0))
+      return;
+    const Eigen::Vector3i c0 = cellOf(points[p] - Eigen::Vector3d::Constant(r)),
+                          c1 = cellOf(points[p] + Eigen::Vector3d::Constant(r));
+    for (int x = std::max(c0.x(), 0); x <= c1.x(); ++x)
+      for (int y = std::max(c0.y(), 0); y <= c1.y(); ++y)
+        for (int z = std::max(c0.z(), 0); z <= c1.z(); ++z)
+          visit(keyOf(x, y, z));
+  };
   // Only the cells within reach of a later piece's vertices are looked at: the grid holds the
   // vertices in those cells ("near"), and only their settled normals are needed.
   std::vector<std::uint64_t> wanted;
   for (std::uint32_t k = first[1]; k < first[pieces]; ++k)
     for (std::uint32_t p : out[member[k]])
-    {
-      const double r = radiusAt(p);
-      if (!(r > 0))
-        continue;
-      const Eigen::Vector3i c0 = cellOf(points[p] - Eigen::Vector3d::Constant(r)),
-                            c1 = cellOf(points[p] + Eigen::Vector3d::Constant(r));
-      for (int x = std::max(c0.x(), 0); x <= c1.x(); ++x)
-        for (int y = std::max(c0.y(), 0); y <= c1.y(); ++y)
-          for (int z = std::max(c0.z(), 0); z <= c1.z(); ++z)
-            wanted.push_back(keyOf(x, y, z));
-    }
+      forCellsNear(p, [&](std::uint64_t key) { wanted.push_back(key); });
   std::sort(wanted.begin(), wanted.end());
   wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
   std::vector<char> near(n, 0);
@@ -167,32 +169,24 @@ std::size_t orientPieces(const std::vector<Eigen::Vector3d>& points, const std::
           continue;
         const Eigen::Vector3d np = own[p].normalized();
         const double r = radiusAt(p);
-        if (!(r > 0))
-          continue;
-        const Eigen::Vector3i c0 = cellOf(points[p] - Eigen::Vector3d::Constant(r)),
-                              c1 = cellOf(points[p] + Eigen::Vector3d::Constant(r));
-        for (int x = std::max(c0.x(), 0); x <= c1.x(); ++x)
-          for (int y = std::max(c0.y(), 0); y <= c1.y(); ++y)
-            for (int z = std::max(c0.z(), 0); z <= c1.z(); ++z)
-            {
-              const std::uint64_t key = keyOf(x, y, z);
-              auto it = std::lower_bound(
-                  grid.begin(), grid.end(), key,
-                  [](const std::pair<std::uint64_t, std::uint32_t>& g, std::uint64_t k) { return g.first < k; });
-              for (; it != grid.end() && it->first == key; ++it)
-              {
-                const std::uint32_t q = it->second;
-                if (q == p || settled[q].isZero())
-                  continue;
-                const Eigen::Vector3d d = points[q] - points[p];
-                const double dn = d.norm();
-                if (dn > r)
-                  continue;
-                const Eigen::Vector3d nq = settled[q].normalized();
-                if (std::abs(d.dot(np)) <= 0.5 * dn && std::abs(d.dot(nq)) <= 0.5 * dn)
-                  vote += np.dot(nq);
-              }
-            }
+        forCellsNear(p, [&](std::uint64_t key) {
+          auto it = std::lower_bound(
+              grid.begin(), grid.end(), key,
+              [](const std::pair<std::uint64_t, std::uint32_t>& g, std::uint64_t k) { return g.first < k; });
+          for (; it != grid.end() && it->first == key; ++it)
+          {
+            const std::uint32_t q = it->second;
+            if (q == p || settled[q].isZero())
+              continue;
+            const Eigen::Vector3d d = points[q] - points[p];
+            const double dn = d.norm();
+            if (dn > r)
+              continue;
+            const Eigen::Vector3d nq = settled[q].normalized();
+            if (std::abs(d.dot(np)) <= 0.5 * dn && std::abs(d.dot(nq)) <= 0.5 * dn)
+              vote += np.dot(nq);
+          }
+        });
       }
       if (vote < 0)
       {
