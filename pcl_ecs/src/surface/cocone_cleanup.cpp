@@ -15,6 +15,19 @@ namespace detail
 
 namespace
 {
+/// The pieces of the kept triangles, as a union of their vertices.
+UnionFind vertexPieces(std::size_t num_points, const std::vector<Triangle>& out, const std::vector<char>& keep)
+{
+  UnionFind uf(num_points);
+  for (std::uint32_t t = 0; t < out.size(); ++t)
+    if (keep[t])
+    {
+      uf.unite(out[t][0], out[t][1]);
+      uf.unite(out[t][0], out[t][2]);
+    }
+  return uf;
+}
+
 /// Step 7, second part: the orientation of the pieces the manifold clean-up leaves. A piece can
 /// come out inside out: the walk crossed a fold (a sliver where two sheets meet) and went on with
 /// the other side up, and the clean-up then cut the fold, or the piece was walked from a seed with
@@ -37,12 +50,7 @@ std::size_t orientPieces(const std::vector<Eigen::Vector3d>& points, const std::
   if (kept.empty())
     return 0;
   const std::size_t n = points.size();
-  UnionFind uf(n);
-  for (std::uint32_t t : kept)
-  {
-    uf.unite(out[t][0], out[t][1]);
-    uf.unite(out[t][0], out[t][2]);
-  }
+  UnionFind uf = vertexPieces(n, out, keep);
   // Piece ids in walk order of their first triangle (piece 0 holds the walk's first kept
   // triangle, which the hull seed oriented); members listed piece by piece.
   std::vector<std::uint32_t> id(kept.size(), kNone), root_id(n, kNone);
@@ -590,13 +598,7 @@ public:
     // united: joining them would make a handle.
     UnionFind pieces(loops.size());
     {
-      UnionFind uf(points.size());
-      for (std::uint32_t t = 0; t < out_.size(); ++t)
-        if (keep_[t])
-        {
-          uf.unite(out_[t][0], out_[t][1]);
-          uf.unite(out_[t][0], out_[t][2]);
-        }
+      UnionFind uf = vertexPieces(points.size(), out_, keep_);
       std::unordered_map<std::uint32_t, std::uint32_t> first_loop_of_piece;
       for (std::uint32_t l = 0; l < loops.size(); ++l)
       {

@@ -18,9 +18,9 @@
 //      edge is kept: removing those would erode a noisy surface from every small hole.
 //   6. Extraction: a walk from a hull triangle oriented outwards; across each edge the walk takes
 //      the first triangle met when turning towards the outside, oriented consistently.
-//   7. Clean-up: a piece walked from a seed off the hull takes the orientation of the surface
-//      around it; an edge keeps at most two triangles, a vertex keeps its largest fan of triangles,
-//      so the result is an oriented 2-manifold (possibly with boundary); notches are closed with
+//   7. Clean-up: an edge keeps at most two triangles, a vertex keeps its largest fan of triangles,
+//      so the result is an oriented 2-manifold (possibly with boundary); each piece this leaves
+//      after the first takes the orientation of the surface around it; notches are closed with
 //      candidates, two loops facing each other across a missing strip are joined by a band, and
 //      the other holes are closed by ear clipping, whose triangles are then flipped where the other
 //      diagonal bends the surface less.
