@@ -1,5 +1,6 @@
 // gap_fill.h: after the cover, no input point farther than the gap bound from the output.
 #include <pcl_ecs/stages/gap_fill.h>
+#include <pcl_ecs/stages/feature_thinning.h>
 
 #include "cover_fixture.h"
 
@@ -97,6 +98,65 @@ TEST(GapFill, OffOrWideGapChangesNothingAndFeaturesCount)
         nearest_feature = std::min(nearest_feature, ((*cloud)[i].getVector3fMap().cast<double>() - c).norm());
     EXPECT_GT(nearest_feature, gap) << "a point within the gap of a feature point is covered by it";
   }
+}
+
+TEST(GapFill, FeaturePointsThinnedOutEndWithinTheGapToo)
+{
+  // A band of feature points across a plane, thinned to one per 0.3: a dropped one may lie farther
+  // than the gap from every output point (its kept one included). The fill makes such points
+  // output points of their own, so that every point, covered or thinned out, ends within the gap.
+  auto cloud = randomPlane(4000, 1.0, 8);
+  std::vector<std::uint8_t> feature(cloud->size(), 0);
+  for (std::size_t i = 0; i < cloud->size(); ++i)
+    feature[i] = std::abs((*cloud)[i].y) < 0.03f ? 1 : 0;
+  pcl_ecs::Parameters p;
+  p.radius_cap_factor = 8.0;
+  CoverRun run(cloud, p, 0.2, feature);
+  std::vector<std::int64_t> kept_by;
+  const std::size_t kept = pcl_ecs::thinFeatures(*cloud, run.feature, std::vector<double>(cloud->size(), 1.0), 0.3, kept_by);
+  pcl_ecs::CoverInput in = run.input();
+  in.feature_kept_by = &kept_by;
+  std::vector<std::uint8_t> output_feature(cloud->size(), 0);
+  std::size_t thinned = 0;
+  for (std::size_t i = 0; i < cloud->size(); ++i)
+  {
+    output_feature[i] = in.featureOutput(i) ? 1 : 0;
+    thinned += feature[i] && !output_feature[i] ? 1 : 0;
+  }
+  ASSERT_GT(thinned, 10 * kept);
+  const double gap = 0.3 * p.radius_cap_factor * in.neighborhood_radius;
+  ASSERT_LT(gap, 0.15) << "thinned points must be able to lie beyond the gap";
+  auto farthestThinned = [&] {
+    double worst = 0.0;
+    for (std::size_t i = 0; i < cloud->size(); ++i)
+      if (feature[i] && !output_feature[i])
+        worst = std::max(worst, distanceToOutput(*cloud, output_feature, run.out, (*cloud)[i].getVector3fMap().cast<double>()));
+    return worst;
+  };
+  ASSERT_GT(farthestThinned(), gap) << "the test must start with a thinned point beyond the gap";
+  const std::size_t before = run.out.balls.size();
+  pcl_ecs::fillGaps(in, p, 0.2, gap, run.out);
+  EXPECT_LE(farthestThinned(), gap);
+  for (const auto& q : *cloud)
+    EXPECT_LE(distanceToOutput(*cloud, output_feature, run.out, q.getVector3fMap().cast<double>()), gap);
+  std::size_t on_thinned = 0, replaced = 0;
+  for (std::size_t b = 0; b < run.out.balls.size(); ++b)
+  {
+    const auto& ball = run.out.balls[b];
+    replaced += ball.replaced;
+    if (b < before)
+      continue;
+    const auto c = static_cast<std::size_t>(ball.centre);
+    EXPECT_TRUE(pcl_ecs::isOwnPoint(ball));
+    EXPECT_EQ(run.out.owner[c], static_cast<int>(b));
+    on_thinned += feature[c] ? 1 : 0;
+  }
+  EXPECT_GT(on_thinned, 0u);
+  // Every covered point and every thinned point now standing for itself, once.
+  std::size_t covered = 0;
+  for (std::size_t i = 0; i < cloud->size(); ++i)
+    covered += !feature[i] ? 1 : 0;
+  EXPECT_EQ(replaced, covered + on_thinned);
 }
 
 TEST(GapFill, ThreadCountDoesNotChangeTheResult)

@@ -137,7 +137,7 @@ struct Parameters
    * sharp edge, which a small output cannot afford. A dropped feature point is stood for by a kept
    * one within that distance. 0 keeps every feature point (the paper's method). With a target
    * size the search sets it (half the spacing the target implies, wider while the feature points
-   * would take more than half the target) and Summary::feature_spacing says what it used, so a
+   * would take more than a third of the target) and Summary::feature_spacing says what it used, so a
    * plain run with it reproduces the output. Range: 0 or (0, 1000]. Default 0. */
   double feature_spacing = 0.0;
 

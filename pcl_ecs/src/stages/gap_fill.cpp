@@ -84,7 +84,8 @@ void addPointBall(const CoverInput& in, const Parameters& params, double error_t
   b.attribute_source = static_cast<int>(i);
   b.normal = in.normals[i];
   b.replaced = 1;
-  --out.balls[static_cast<std::size_t>(out.owner[i])].replaced;
+  if (out.owner[i] >= 0)
+    --out.balls[static_cast<std::size_t>(out.owner[i])].replaced;
   out.owner[i] = static_cast<int>(out.balls.size());
   out.balls.push_back(b);
 }
@@ -97,18 +98,24 @@ std::size_t fillGaps(const CoverInput& in, const Parameters& params, double erro
   const std::size_t n = in.cloud.size();
   auto position = [&](std::size_t i) { return Eigen::Vector3d(in.cloud[i].getVector3fMap().cast<double>()); };
   const std::vector<Eigen::Vector3d> outputs = outputPositions(in, out);
-  // Candidates, in cloud order: covered points farther than the gap from their own representative
-  // (the others are within it of an output point already).
+  // Candidates, in cloud order: covered points farther than the gap from their own representative,
+  // and feature points the thinning left out farther than it from the feature point standing for
+  // them (the others are within it of an output point already).
   const double gap2 = gap * gap;
   std::vector<std::size_t> index;
   std::vector<Eigen::Vector3d> candidates;
   for (std::size_t i = 0; i < n; ++i)
   {
     const int o = out.owner[i];
-    if (o < 0)
+    Eigen::Vector3d stood_for_by;
+    if (o >= 0)
+      stood_for_by = out.balls[static_cast<std::size_t>(o)].representative;
+    else if (in.is_feature[i] && !in.featureOutput(i))
+      stood_for_by = position(static_cast<std::size_t>((*in.feature_kept_by)[i]));
+    else
       continue;
     const Eigen::Vector3d p = position(i);
-    if ((p - out.balls[static_cast<std::size_t>(o)].representative).squaredNorm() > gap2)
+    if ((p - stood_for_by).squaredNorm() > gap2)
     {
       index.push_back(i);
       candidates.push_back(p);

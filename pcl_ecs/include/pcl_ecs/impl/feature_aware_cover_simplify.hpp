@@ -197,7 +197,7 @@ void assembleOutput(const pcl::PointCloud<PointT>& input, const LocalFrame<Point
   for (std::size_t i = 0; i < used.size(); ++i)
   {
     const std::int64_t out_idx =
-        core.is_feature[i] ? local_to_output[core.keptFeature(i)]
+        core.is_feature[i] && core.cover.owner[i] < 0 ? local_to_output[core.keptFeature(i)]
                            : static_cast<std::int64_t>(result.balls[static_cast<std::size_t>(core.cover.owner[i])].output_index);
     result.input_to_output[static_cast<std::size_t>(used[i])] = out_idx;
   }

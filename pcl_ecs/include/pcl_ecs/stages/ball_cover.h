@@ -158,7 +158,9 @@ BallAttributes ballAttributes(const std::vector<int>& members, const std::vector
 struct CoverOutput
 {
   std::vector<CoverBall> balls;
-  std::vector<int> owner;  ///< per point: the ball that covered it, -1 for feature points
+  /// per point: the ball that covered it; -1 for feature points, but for a thinned-out one the gap
+  /// bound made an output point of its own (gap_fill.h)
+  std::vector<int> owner;
   double max_error = 0.0;
   std::size_t radius_evaluations = 0;
 };

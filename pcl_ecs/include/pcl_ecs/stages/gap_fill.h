@@ -4,8 +4,10 @@
 // scan) the distance from a point to the nearest output point can reach 1.5 × the radius cap.
 // fillGaps bounds it: every non-feature point farther than `gap` from every output point (feature
 // points and ball representatives) becomes an output point of its own, a ball of radius 0 centred
-// on it, greedily in cloud order (each added point may close the gaps around it). Afterwards every
-// covered point lies within `gap` of an output point.
+// on it, greedily in cloud order (each added point may close the gaps around it); so does a feature
+// point the thinning left out (feature_thinning.h), which its kept feature point may stand for from
+// farther than `gap`. Afterwards every covered point and every thinned-out feature point lies within
+// `gap` of an output point.
 #pragma once
 
 #include <pcl_ecs/parameters.h>
@@ -36,16 +38,17 @@ std::vector<std::size_t> closeGaps(const std::vector<Eigen::Vector3d>& outputs,
  * representatives (ball order). */
 std::vector<Eigen::Vector3d> outputPositions(const CoverInput& in, const CoverOutput& out);
 
-/** \brief Makes input point `i` (a covered, non-feature point) an output point of its own: a ball
- * of radius 0 centred on it, with the tolerance its centre would get (error_threshold adapted as
- * in the cover), its own attributes, taking the point over from its previous ball (owner and
- * `replaced` updated). */
+/** \brief Makes input point `i` (a covered point, or a feature point the thinning left out) an
+ * output point of its own: a ball of radius 0 centred on it, with the tolerance its centre would
+ * get (error_threshold adapted as in the cover), its own attributes, taking the point over from
+ * its previous ball, if any (owner and `replaced` updated). */
 void addPointBall(const CoverInput& in, const Parameters& params, double error_threshold, std::size_t i,
                   CoverOutput& out);
 
-/** \brief Add radius-0 balls until every point covered by `out` lies within `gap` of an output
- * point (a feature point of `in` or a representative of `out`); the added balls take over their
- * point from its previous ball (owner and `replaced` updated). `gap` <= 0 does nothing. The tolerance
+/** \brief Add radius-0 balls until every point covered by `out`, and every feature point that
+ * in.feature_kept_by leaves out, lies within `gap` of an output point (a kept feature point of `in`
+ * or a representative of `out`); the added balls take over their point from its previous ball
+ * (owner and `replaced` updated; a thinned-out feature point had none). `gap` <= 0 does nothing. The tolerance
  * of an added ball is the one its centre would get (error_threshold adapted as in the cover).
  * Deterministic: the result does not depend on params.threads. Returns the number of balls added. */
 std::size_t fillGaps(const CoverInput& in, const Parameters& params, double error_threshold, double gap,
