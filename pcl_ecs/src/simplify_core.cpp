@@ -378,11 +378,13 @@ void coverToTargetSize(const CoverInput& all_features, const Parameters& params,
   }
   const CoverInput in = keptFeatures(all_features, out);
   const double balls_wanted = target - static_cast<double>(s.feature_points);
-  // The radius cap follows the target (Parameters::target_radius_cap).
+  // The radius cap follows the target (Parameters::target_radius_cap); when the feature points
+  // alone reach the target, the cap one ball would have (as few balls as the cover can make).
   Parameters cover_params = params;
-  if (params.target_radius_cap > 0.0 && balls_wanted >= 1.0)
+  if (params.target_radius_cap > 0.0)
   {
-    const double implied = std::sqrt(nonfeature / (static_cast<double>(params.k_neighbors) * balls_wanted));
+    const double implied =
+        std::sqrt(nonfeature / (static_cast<double>(params.k_neighbors) * std::max(1.0, balls_wanted)));
     cover_params.radius_cap_factor = std::min(1000.0, std::max(1e-3, params.target_radius_cap * implied));
   }
   TargetSearchSetup setup;

@@ -439,6 +439,13 @@ TEST_F(Cli, UnreachableTargetIsReported)
   EXPECT_FALSE(j["target_reached"].get<bool>());
   EXPECT_EQ(j["target"]["size"].get<std::size_t>(), 2u);
   EXPECT_EQ(j["target"]["closest_size"].get<std::size_t>(), load(path("a.pcd")).width);
+  // One point, fewer than the feature points alone: the search still makes as few balls as it can,
+  // so the closest size is no larger than for two.
+  const RunResult one = run(in + " " + path("c.pcd") + " --target-size 1 --stats " + path("c.json"));
+  ASSERT_EQ(one.code, 0) << one.err;
+  EXPECT_NE(one.err.find("out of reach"), std::string::npos) << one.err;
+  EXPECT_LE(nlohmann::json::parse(slurp(path("c.json")))["target"]["closest_size"].get<std::size_t>(),
+            j["target"]["closest_size"].get<std::size_t>());
   // A reachable target says nothing of the kind.
   const RunResult ok = run(in + " " + path("b.pcd") + " --target-ratio 0.05 --stats " + path("b.json"));
   ASSERT_EQ(ok.code, 0) << ok.err;
