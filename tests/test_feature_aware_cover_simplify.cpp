@@ -53,6 +53,28 @@ Cloud run(const Cloud::Ptr& in, Filter& f)
 }
 }  // namespace
 
+namespace
+{
+/// How many input points each output point stands for (Result::input_to_output), checking that the
+/// mapping is total and in range; empty when it is not.
+std::vector<std::size_t> pointsStoodFor(const pcl_ecs::Result& r, std::size_t input_size, std::size_t output_size)
+{
+  std::vector<std::size_t> count(output_size, 0);
+  EXPECT_EQ(r.input_to_output.size(), input_size);
+  if (r.input_to_output.size() != input_size)
+    return {};
+  for (std::size_t i = 0; i < input_size; ++i)
+  {
+    const std::int64_t o = r.input_to_output[i];
+    EXPECT_TRUE(o >= 0 && o < static_cast<std::int64_t>(output_size)) << "input point " << i << " maps to " << o;
+    if (!(o >= 0 && o < static_cast<std::int64_t>(output_size)))
+      return {};
+    ++count[static_cast<std::size_t>(o)];
+  }
+  return count;
+}
+}  // namespace
+
 TEST(Filter, PlaneHasNoFeaturesAndRepresentativesOnThePlane)
 {
   auto cloud = randomPlane(10000, 2.0, 1);
@@ -228,14 +250,8 @@ TEST(Filter, ThinnedOutFeaturePointsMapToTheOutputStandingForThem)
     const auto& r = f.getResult();
     ASSERT_TRUE(r.error.empty()) << r.error;
     ASSERT_GT(r.summary.thinned_features, 0u);
-    ASSERT_EQ(r.input_to_output.size(), cloud->size());
-    std::vector<std::size_t> replaced(out.size(), 0);
-    for (std::size_t i = 0; i < cloud->size(); ++i)
-    {
-      ASSERT_GE(r.input_to_output[i], 0);
-      ASSERT_LT(r.input_to_output[i], static_cast<std::int64_t>(out.size()));
-      ++replaced[static_cast<std::size_t>(r.input_to_output[i])];
-    }
+    const std::vector<std::size_t> replaced = pointsStoodFor(r, cloud->size(), out.size());
+    ASSERT_EQ(replaced.size(), out.size());
     std::size_t own_points = 0;
     auto mapsToItself = [&](std::size_t o) {
       return r.input_to_output[static_cast<std::size_t>(r.source_index[o])] == static_cast<std::int64_t>(o);
@@ -268,14 +284,8 @@ TEST(Filter, MappingIsTotalAndErrorsWithinTolerance)
   Filter f;
   const Cloud out = run(cloud, f);
   const auto& r = f.getResult();
-  ASSERT_EQ(r.input_to_output.size(), cloud->size());
-  std::vector<std::size_t> replaced(out.size(), 0);
-  for (std::size_t i = 0; i < cloud->size(); ++i)
-  {
-    ASSERT_GE(r.input_to_output[i], 0);
-    ASSERT_LT(r.input_to_output[i], static_cast<std::int64_t>(out.size()));
-    ++replaced[static_cast<std::size_t>(r.input_to_output[i])];
-  }
+  const std::vector<std::size_t> replaced = pointsStoodFor(r, cloud->size(), out.size());
+  ASSERT_EQ(replaced.size(), out.size());
   ASSERT_EQ(r.labels.size(), out.size());
   for (std::size_t o = 0; o < out.size(); ++o)
   {

@@ -13,6 +13,29 @@ using namespace pcl_ecs_test;
 
 namespace
 {
+/// The balls from `before` on (those a fill added): each is an input point made an output point of
+/// its own, owning that point. Returns the sum of `replaced` over every ball.
+std::size_t checkAddedBalls(const Cloud& cloud, const pcl_ecs::CoverOutput& out, std::size_t before)
+{
+  std::size_t replaced = 0;
+  for (std::size_t b = 0; b < out.balls.size(); ++b)
+  {
+    const auto& ball = out.balls[b];
+    replaced += ball.replaced;
+    if (b < before)
+      continue;
+    const auto c = static_cast<std::size_t>(ball.centre);
+    EXPECT_EQ(ball.radius, 0.0);
+    EXPECT_EQ(ball.replaced, 1u);
+    EXPECT_TRUE(ball.used_centre);
+    EXPECT_EQ(ball.attribute_source, ball.centre);
+    EXPECT_EQ(out.owner[c], static_cast<int>(b));
+    EXPECT_EQ(ball.representative, cloud[c].getVector3fMap().cast<double>());
+    EXPECT_LE(ball.error, ball.tolerance);
+  }
+  return replaced;
+}
+
 /// Distance from p to the nearest output point (feature points and representatives), brute force.
 double distanceToOutput(const Cloud& cloud, const std::vector<std::uint8_t>& feature,
                         const pcl_ecs::CoverOutput& out, const Eigen::Vector3d& p)
@@ -48,23 +71,7 @@ TEST(GapFill, EveryPointEndsWithinTheGapAndTheCountsStayTotal)
   EXPECT_EQ(run.out.balls.size(), before + added);
   for (const auto& q : *cloud)
     EXPECT_LE(distanceToOutput(*cloud, run.feature, run.out, q.getVector3fMap().cast<double>()), gap);
-  std::size_t replaced = 0;
-  for (std::size_t b = 0; b < run.out.balls.size(); ++b)
-  {
-    const auto& ball = run.out.balls[b];
-    replaced += ball.replaced;
-    if (b < before)
-      continue;
-    const auto c = static_cast<std::size_t>(ball.centre);
-    EXPECT_EQ(ball.radius, 0.0);
-    EXPECT_EQ(ball.replaced, 1u);
-    EXPECT_TRUE(ball.used_centre);
-    EXPECT_EQ(ball.attribute_source, ball.centre);
-    EXPECT_EQ(run.out.owner[c], static_cast<int>(b));
-    EXPECT_EQ(ball.representative, (*cloud)[c].getVector3fMap().cast<double>());
-    EXPECT_LE(ball.error, ball.tolerance);
-  }
-  EXPECT_EQ(replaced, cloud->size());
+  EXPECT_EQ(checkAddedBalls(*cloud, run.out, before), cloud->size());
   // Greedy in cloud order, but not wasteful: no two added points within the gap of each other.
   for (std::size_t a = before; a < run.out.balls.size(); ++a)
     for (std::size_t b = a + 1; b < run.out.balls.size(); ++b)
@@ -139,18 +146,10 @@ TEST(GapFill, FeaturePointsThinnedOutEndWithinTheGapToo)
   EXPECT_LE(farthestThinned(), gap);
   for (const auto& q : *cloud)
     EXPECT_LE(distanceToOutput(*cloud, output_feature, run.out, q.getVector3fMap().cast<double>()), gap);
-  std::size_t on_thinned = 0, replaced = 0;
-  for (std::size_t b = 0; b < run.out.balls.size(); ++b)
-  {
-    const auto& ball = run.out.balls[b];
-    replaced += ball.replaced;
-    if (b < before)
-      continue;
-    const auto c = static_cast<std::size_t>(ball.centre);
-    EXPECT_TRUE(pcl_ecs::isOwnPoint(ball));
-    EXPECT_EQ(run.out.owner[c], static_cast<int>(b));
-    on_thinned += feature[c] ? 1 : 0;
-  }
+  const std::size_t replaced = checkAddedBalls(*cloud, run.out, before);
+  std::size_t on_thinned = 0;
+  for (std::size_t b = before; b < run.out.balls.size(); ++b)
+    on_thinned += feature[static_cast<std::size_t>(run.out.balls[b].centre)] ? 1 : 0;
   EXPECT_GT(on_thinned, 0u);
   // Every covered point and every thinned point now standing for itself, once.
   std::size_t covered = 0;
