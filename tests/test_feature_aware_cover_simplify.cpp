@@ -51,10 +51,7 @@ Cloud run(const Cloud::Ptr& in, Filter& f)
   f.filter(out);
   return out;
 }
-}  // namespace
 
-namespace
-{
 /// How many input points each output point stands for (Result::input_to_output), checking that the
 /// mapping is total and in range; empty when it is not.
 std::vector<std::size_t> pointsStoodFor(const pcl_ecs::Result& r, std::size_t input_size, std::size_t output_size)
@@ -268,7 +265,7 @@ TEST(Filter, ThinnedOutFeaturePointsMapToTheOutputStandingForThem)
       // (a ball's `replaced` counts coincident input points once: the room scan has them)
       if (r.summary.merged_points == 0)
         EXPECT_EQ(replaced[o], b.replaced);
-      if (b.radius == 0.0 && b.used_centre)  // an input point made an output point of its own
+      if (b.isOwnPoint())
       {
         ++own_points;
         EXPECT_TRUE(mapsToItself(o));

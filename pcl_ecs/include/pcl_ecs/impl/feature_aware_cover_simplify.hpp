@@ -196,9 +196,12 @@ void assembleOutput(const pcl::PointCloud<PointT>& input, const LocalFrame<Point
   }
   for (std::size_t i = 0; i < used.size(); ++i)
   {
+    // The ball that owns the point (a thinned-out feature point the gap bound made an output point
+    // of its own has one), else the feature point standing for it.
+    const int owner = core.cover.owner[i];
     const std::int64_t out_idx =
-        core.is_feature[i] && core.cover.owner[i] < 0 ? local_to_output[core.keptFeature(i)]
-                           : static_cast<std::int64_t>(result.balls[static_cast<std::size_t>(core.cover.owner[i])].output_index);
+        owner >= 0 ? static_cast<std::int64_t>(result.balls[static_cast<std::size_t>(owner)].output_index)
+                   : local_to_output[core.keptFeature(i)];
     result.input_to_output[static_cast<std::size_t>(used[i])] = out_idx;
   }
   for (const auto& [gone, kept] : f.merged)
