@@ -290,3 +290,41 @@ TEST(BallCover, AttributesComeFromTheNearestMemberAndTheWeightedNormals)
   EXPECT_EQ(alone.source, 7);
   EXPECT_EQ(alone.normal, normals[7]);
 }
+
+// Where the quadratic does not fit a ball (representative_fit.h: large balls on a small noisy
+// sphere, whose normals spread and whose noise exceeds the residual the fit admits), the
+// representative is the member nearest to the optimised point: an input point, on the surface,
+// not the optimised point where the ball's tangent planes meet, off it. With the fit off (the
+// paper's rule) those balls keep the optimised point, which is no input point.
+TEST(BallCover, WhereNoQuadraticFitsTheRepresentativeIsTheMemberNearestTheOptimisedPoint)
+{
+  auto cloud = fibonacciSphere(20000, 1.0, 0.004, 5);
+  auto isInputPoint = [&](const Eigen::Vector3d& v, int source) {
+    return source >= 0 && v == (*cloud)[static_cast<std::size_t>(source)].getVector3fMap().cast<double>();
+  };
+  pcl_ecs::Parameters p;
+  const double terr = 2e-3;
+  CoverRun fitted(cloud, p, terr);
+  std::size_t unfitted = 0;
+  for (const auto& b : fitted.out.balls)
+    if (b.radius > 0.0 && !b.used_centre && !b.fitted)
+    {
+      ++unfitted;
+      EXPECT_TRUE(isInputPoint(b.representative, b.attribute_source));
+      const Eigen::Vector3d c = (*cloud)[static_cast<std::size_t>(b.centre)].getVector3fMap().cast<double>();
+      EXPECT_LT((b.representative - c).norm(), p.max_representative_offset * b.radius);
+    }
+  std::printf("%zu of %zu balls not fitted\n", unfitted, fitted.out.balls.size());
+  EXPECT_GT(unfitted, 10u) << "the test shape must exercise the rule";
+  p.representative_fit = false;
+  CoverRun paper(cloud, p, terr);
+  std::size_t at_input_points = 0, optimised = 0;
+  for (const auto& b : paper.out.balls)
+    if (b.radius > 0.0 && !b.used_centre)
+    {
+      ++optimised;
+      at_input_points += isInputPoint(b.representative, b.attribute_source) ? 1 : 0;
+    }
+  EXPECT_GT(optimised, 10u);
+  EXPECT_EQ(at_input_points, 0u);
+}

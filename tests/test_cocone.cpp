@@ -618,15 +618,17 @@ TEST(CoconeScan, BunnyIsAManifoldCloseToTheReference)
   EXPECT_TRUE(t.isManifold());
   EXPECT_TRUE(t.consistently_oriented);
   EXPECT_EQ(t.nonmanifold_edges, 0u);
-  // One surface, and at most a couple of small patches cut off by the loops at the base (one of
-  // 64 triangles at the time of writing).
-  EXPECT_LE(t.components, 3u);
+  // One surface: the hole filling closes the open base, and the pocket of 47 samples it also
+  // closed beside the surface there (within half a spacing of it) is dropped as a second layer.
+  EXPECT_EQ(t.components, 1u);
+  EXPECT_EQ(r.stats.dropped_layers, 1u);
   // The merged scans leave the bunny's base open: a handful of loops, bounded.
   RecordProperty("boundary_loops", static_cast<int>(t.boundary_loops));
   std::printf("bunny: %zu triangles, %zu boundary loops, %zu used of %zu points\n", t.triangles, t.boundary_loops,
               t.used_vertices, pts.size());
   EXPECT_LE(t.boundary_loops, 15u);
-  EXPECT_GE(static_cast<double>(t.used_vertices), 0.999 * static_cast<double>(pts.size()));
+  // Unused: the duplicates and that pocket's samples.
+  EXPECT_GE(static_cast<double>(t.used_vertices), 0.998 * static_cast<double>(pts.size()));
 
   pcl::PointCloud<pcl::PointXYZ> rv;
   pcl_ecs::io::fromCloud(ref_pm.cloud, rv);

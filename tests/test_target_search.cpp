@@ -231,6 +231,31 @@ TEST(TargetSearch, WidensTheGapBoundAtTheStartingTErrBeforeMovingIt)
     EXPECT_EQ(counter.trials[i].gap, counter.trials[first_move - 1].gap) << i;
 }
 
+TEST(TargetSearch, WidensTheCapForTheBallsNotForTheGapPointsAWiderBoundRemoves)
+{
+  // Every ball at the cap (8000 / cap²), and gap points where they meet: 40% of the balls with
+  // the bound at 0.6 cap, fewer as it widens. 1,111 wanted: at cap 2 the count is 2,000 balls
+  // + 800 gap points, 2.5 × too many, but the balls alone are 1.8 ×; one ×1.5 step (888 balls,
+  // 355 gap points at 0.6 cap) and a wider bound reach the size, so the search stays at cap 3
+  // (two steps, cap 4.5, leave 395 balls and a bound of 0.6 × 4.5 where 3 had done).
+  auto counts = [](double t, double cap, double gap) {
+    TargetTrialCounts c = cappedPowerLaw(t, cap, 0.0);
+    c.gap_points = static_cast<std::size_t>(0.4 * static_cast<double>(c.balls) * std::exp(-4.0 * (gap / cap - 0.6)));
+    c.balls += c.gap_points;
+    return c;
+  };
+  FormulaCounter counter(counts);
+  TargetSearchSetup s = setupFor(1111.0, 0);
+  s.start_terr = 0.1;  // saturated from the start
+  s.gap_ratio = 0.6;
+  const TargetSearchResult r = pcl_ecs::searchTargetSize(s, counter);
+  EXPECT_TRUE(r.reached);
+  EXPECT_DOUBLE_EQ(r.cap_factor, 3.0);
+  for (const auto& t : counter.trials)
+    EXPECT_LE(t.cap, 3.0) << "the cap went past the one a single step reaches";
+  EXPECT_GT(r.gap_factor, 0.6 * 3.0);
+}
+
 TEST(TargetSearch, TheSameCountsGiveTheSameTrials)
 {
   auto counts = [](double t, double, double) { return powerLaw(t, 37.0, 0.7); };

@@ -105,7 +105,8 @@ struct Parameters
   double max_roughness = 0.2;
 
   /** \brief Place the representative of a smooth ball (its quadric has one dominant direction) on
-   * the weighted least-squares quadratic through its points, along the centre's normal
+   * the weighted least-squares quadratic through its points, along the centre's normal, and that
+   * of a ball no quadratic fits at its member nearest to the optimised point
    * (stages/representative_fit.h): on curved and noisy scans the output points then lie on the
    * surface, not off it by the planes' bias or the noise. Default on; off is the paper's method. */
   bool representative_fit = true;

@@ -23,12 +23,12 @@ struct Ball
 {
   std::int64_t centre_index = -1;  ///< index of the centre c in the input cloud
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();          ///< c
-  Eigen::Vector3d representative = Eigen::Vector3d::Zero();  ///< v (x_min or c)
+  Eigen::Vector3d representative = Eigen::Vector3d::Zero();  ///< v (x_min, on the fitted quadratic or the member nearest to it; or c)
   double radius = 0.0;       ///< r (0 when the ball holds its centre alone)
   double tolerance = 0.0;    ///< T_err used for this ball, after step 5
   double error = 0.0;        ///< E(r) reached; never above tolerance
   std::size_t replaced = 0;  ///< input points this ball covered (c included)
-  bool used_centre = false;  ///< v = c: the ball was too rough, or its minimiser too far from c (ball_cover.h)
+  bool used_centre = false;  ///< v = c: the ball was too rough, or its representative too far from c (ball_cover.h)
   std::size_t output_index = 0;  ///< index of v in the output cloud
 
   /// An input point made an output point of its own (radius 0, v = c: the gap bound, a target

@@ -284,6 +284,17 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
       ballAttributes(w.members, w.offsets, w.distances, v_offset, in.normals, c, sol.radius);
   ball.attribute_source = attributes.source;
   ball.normal = attributes.normal;
+  // A minimiser the quadratic could not place on the surface (a large ball around a bend, whose
+  // tangent planes meet off it, or a noisy one) gives way to that member, a point of the surface
+  // (representative_fit.h); to c when the member lies as far from c as representativeOffset allows.
+  if (params.representative_fit && offset && !ball.fitted && attributes.source >= 0)
+  {
+    const Eigen::Vector3d member = in.cloud[attributes.source].getVector3fMap().cast<double>();
+    const bool within = (member - centre).norm() < params.max_representative_offset * sol.radius;
+    ball.used_centre = !within;
+    ball.representative = within ? member : centre;
+    ball.attribute_source = within ? attributes.source : c;
+  }
   const Eigen::Vector3d nc = in.normals[cs].cast<double>();
 
   // Step 6: cover c and the members projected strictly inside the hull.

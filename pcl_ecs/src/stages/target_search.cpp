@@ -384,15 +384,17 @@ double Search::widenGap(bool gaps_bind)
 }
 
 /// The cap widens by steps of 1.5, several at once: as many as a count falling by 2.4 per step
-/// would need to come from the fewest balls of this search down to the wanted count. A saturated
-/// count falls by 1.9-2.3 per step on the shared scans (each ball at the cap covers about cap²), so
+/// would need to come from the fewest balls of this search, less their gap points, down to the
+/// wanted count. A saturated count falls by 1.9-2.3 per step on the shared scans (each ball at the
+/// cap covers about cap²), and the gap bound widens at the new cap as at this one (run()), so
 /// single steps would need at least as many: the cap is not past the one they would stop at.
 double Search::widenCap() const
 {
   if (fewest_ == std::numeric_limits<std::size_t>::max() || !(static_cast<double>(fewest_) > wanted_) ||
       !(wanted_ > 0.0))
     return 1.5;
-  const double steps = std::ceil(std::log(static_cast<double>(fewest_) / wanted_) / std::log(2.4));
+  const double balls = std::max(wanted_, static_cast<double>(fewest_ - std::min(fewest_, fewest_gaps_)));
+  const double steps = std::ceil(std::log(balls / wanted_) / std::log(2.4));
   return std::pow(1.5, std::min(8.0, std::max(1.0, steps)));
 }
 

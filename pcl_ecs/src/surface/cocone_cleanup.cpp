@@ -852,38 +852,147 @@ private:
   std::vector<std::uint32_t> clipped_;  // triangles made by the ear clipping, in order
 };
 
+/// The point of triangle abc nearest to p (Ericson, Real-Time Collision Detection, 5.1.5).
+Eigen::Vector3d closestOnTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                  const Eigen::Vector3d& c)
+{
+  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0)
+    return a;
+  const Eigen::Vector3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3)
+    return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0)
+    return a + d1 / (d1 - d3) * ab;
+  const Eigen::Vector3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6)
+    return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0)
+    return a + d2 / (d2 - d6) * ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0)
+    return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
+  const double denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+/// A closed piece of at most this share of the largest piece's triangles, every vertex of which
+/// lies within kLayerDistance × its local spacing of the largest piece, is a second layer over
+/// that surface, not a surface of its own (keepLargeComponents).
+constexpr double kLayerShare = 0.01;
+constexpr double kLayerDistance = 0.5;
+
 /// Step 7, last part: the components (through shared edges) of what is kept; those of fewer than
-/// min_component_triangles triangles are dropped.
-std::vector<Triangle> keepLargeComponents(const std::vector<Triangle>& out, const std::vector<char>& keep,
+/// min_component_triangles triangles are dropped, and so are the second layers over the largest
+/// one: a small closed piece whose every vertex lies within half its local spacing of the largest
+/// piece's triangles (a pocket of a few samples the hole filling closed beside the surface they
+/// lie on).
+std::vector<Triangle> keepLargeComponents(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& spacing,
+                                          const std::vector<Triangle>& out, const std::vector<char>& keep,
                                           const CoconeParameters& params, CoconeStats& st)
 {
-  std::vector<Triangle> result;
+  std::vector<Triangle> kept;
+  for (std::uint32_t t = 0; t < out.size(); ++t)
+    if (keep[t])
+      kept.push_back(out[t]);
+  UnionFind uf(kept.size());
+  const EdgeIndex index(kept);
+  const auto& pairs = index.pairs();
+  for (std::size_t i = 1; i < pairs.size(); ++i)
+    if (pairs[i].first == pairs[i - 1].first)
+      uf.unite(pairs[i].second, pairs[i - 1].second);
+  std::vector<std::size_t> size(kept.size(), 0);
+  for (std::uint32_t t = 0; t < kept.size(); ++t)
+    ++size[uf.find(t)];
+  const std::size_t min_size = std::max<std::size_t>(params.min_component_triangles, 1);
+  std::vector<char> drop(kept.size(), 0);
+  for (std::uint32_t t = 0; t < kept.size(); ++t)
+    drop[t] = size[uf.find(t)] < min_size;
+  // The largest piece (the first of the largest, in triangle order) and the second layers over it.
+  std::uint32_t largest = 0;
+  for (std::uint32_t t = 0; t < kept.size(); ++t)
+    if (uf.find(t) == t && size[t] > size[largest])
+      largest = t;
+  std::vector<std::vector<std::uint32_t>> members(kept.size());
+  for (std::uint32_t t = 0; t < kept.size(); ++t)
   {
-    std::vector<Triangle> kept;
-    for (std::uint32_t t = 0; t < out.size(); ++t)
-      if (keep[t])
-        kept.push_back(out[t]);
-    UnionFind uf(kept.size());
-    const EdgeIndex index(kept);
-    const auto& pairs = index.pairs();
-    for (std::size_t i = 1; i < pairs.size(); ++i)
-      if (pairs[i].first == pairs[i - 1].first)
-        uf.unite(pairs[i].second, pairs[i - 1].second);
-    std::vector<std::size_t> size(kept.size(), 0);
-    for (std::uint32_t t = 0; t < kept.size(); ++t)
-      ++size[uf.find(t)];
-    const std::size_t min_size = std::max<std::size_t>(params.min_component_triangles, 1);
+    const std::uint32_t r = uf.find(t);
+    if (!drop[t] && r != largest && static_cast<double>(size[r]) <= kLayerShare * static_cast<double>(size[largest]))
+      members[r].push_back(t);
+  }
+  // A piece is closed when each of its edges has two triangles (after keepManifold, at most two).
+  std::vector<char> open(kept.size(), 0);
+  for (std::size_t i = 0; i < pairs.size(); ++i)
+  {
+    const bool shared = (i > 0 && pairs[i - 1].first == pairs[i].first) ||
+                        (i + 1 < pairs.size() && pairs[i + 1].first == pairs[i].first);
+    if (!shared)
+      open[uf.find(pairs[i].second)] = 1;
+  }
+  for (std::uint32_t r = 0; r < kept.size(); ++r)
+  {
+    if (members[r].empty() || open[r])
+      continue;
+    // Its vertices, each with the distance it must come within, and their box grown by the largest.
+    std::vector<std::pair<std::uint32_t, double>> verts;
+    for (const std::uint32_t t : members[r])
+      for (const std::uint32_t v : kept[t])
+        verts.emplace_back(v, kLayerDistance * spacing[v]);
+    std::sort(verts.begin(), verts.end());
+    verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+    Eigen::Vector3d lo = points[verts[0].first], hi = lo;
+    double reach = 0.0;
+    for (const auto& [v, d] : verts)
+    {
+      lo = lo.cwiseMin(points[v]);
+      hi = hi.cwiseMax(points[v]);
+      reach = std::max(reach, d);
+    }
+    if (!(reach > 0.0) || !std::isfinite(reach))
+      continue;
+    lo.array() -= reach;
+    hi.array() += reach;
+    std::vector<double> nearest(verts.size(), std::numeric_limits<double>::infinity());
     for (std::uint32_t t = 0; t < kept.size(); ++t)
     {
-      if (uf.find(t) == t && size[t] >= min_size)
-        ++st.components;
-      if (size[uf.find(t)] >= min_size)
-        result.push_back(kept[t]);
+      if (uf.find(t) != largest)
+        continue;
+      const Triangle& tri = kept[t];
+      const Eigen::Vector3d tlo = points[tri[0]].cwiseMin(points[tri[1]]).cwiseMin(points[tri[2]]);
+      const Eigen::Vector3d thi = points[tri[0]].cwiseMax(points[tri[1]]).cwiseMax(points[tri[2]]);
+      if ((tlo.array() > hi.array()).any() || (thi.array() < lo.array()).any())
+        continue;
+      for (std::size_t k = 0; k < verts.size(); ++k)
+      {
+        const Eigen::Vector3d& p = points[verts[k].first];
+        nearest[k] = std::min(nearest[k], (closestOnTriangle(p, points[tri[0]], points[tri[1]], points[tri[2]]) - p).norm());
+      }
     }
+    bool layer = true;
+    for (std::size_t k = 0; k < verts.size() && layer; ++k)
+      layer = nearest[k] <= verts[k].second;
+    if (layer)
+    {
+      for (const std::uint32_t t : members[r])
+        drop[t] = 1;
+      ++st.dropped_layers;
+    }
+  }
+  std::vector<Triangle> result;
+  for (std::uint32_t t = 0; t < kept.size(); ++t)
+  {
+    if (drop[t])
+      continue;
+    st.components += uf.find(t) == t ? 1 : 0;
+    result.push_back(kept[t]);
   }
   return result;
 }
-
 
 }  // namespace
 
@@ -906,7 +1015,7 @@ std::vector<Triangle> cleanUp(const std::vector<Eigen::Vector3d>& points, const 
   if (params.watertight)
     st.sealed_loops = fill.closeLoops(fill.holeLoops(std::numeric_limits<std::size_t>::max() - 1), false);
   st.flipped_edges = fill.flipClipped();
-  return keepLargeComponents(out, keep, params, st);
+  return keepLargeComponents(points, spacing, out, keep, params, st);
 }
 
 }  // namespace detail

@@ -9,9 +9,11 @@
 // (Parameters::representative_cutoff; at c along the others), unless the ball's points scatter
 // about their planes by more than Parameters::max_roughness × r or that minimiser lies
 // Parameters::max_representative_offset × r or farther from c: then c itself (the paper's rule
-// is |x_min - c| < r: farther means a sharp region that slipped past the feature test). Its
-// attributes are those of the member nearest to it. One radius query per ball (re-issued larger only if the bracket outgrows it)
-// serves every bisection step and the coverage.
+// is |x_min - c| < r: farther means a sharp region that slipped past the feature test). With
+// Parameters::representative_fit, the minimiser is moved onto the quadratic fitted to the ball's
+// points, or, where none fits, replaced by the member nearest to it (representative_fit.h). Its
+// attributes are those of the member nearest to it. One radius query per ball (re-issued larger
+// only if the bracket outgrows it) serves every bisection step and the coverage.
 //
 // Parallel and deterministic: the centres are bucketed into cells of side > 2·cap coloured by the
 // parity of their grid coordinates (8 colours); cells of one colour are processed concurrently

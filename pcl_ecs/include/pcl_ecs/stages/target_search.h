@@ -23,7 +23,8 @@
 //  2. while the size is out of reach (the cap or the gap points, not T_err, set the count): widen
 //     the gap bound (×1.1, several steps at once when two searches show how the gap points fall)
 //     when the gap points alone exceed the excess, else the cap (×1.5, up to the widest cap;
-//     several steps at once when the fewest balls so far are more than 2.4 × the wanted count),
+//     several steps at once when the fewest balls so far, less their gap points, are more than
+//     2.4 × the wanted count),
 //     and search again from the best T_err so far. A search is over at its first trial when
 //     that cover is saturated: too many balls, and fewer than 1% of the target below the cap, or
 //     fewer than 5% of the balls below it while the balls at the cap alone exceed the wanted

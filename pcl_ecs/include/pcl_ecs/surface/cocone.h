@@ -76,7 +76,9 @@ struct CoconeParameters
    * remaining boundary loop, whatever its size, is sealed by ear clipping (shortest chord first,
    * never an edge the mesh already has). An open surface gets closed too. */
   bool watertight = false;
-  /** Components (after extraction) with fewer triangles are dropped. */
+  /** Components (after extraction) with fewer triangles are dropped; so is a closed component of at
+   * most 1% of the largest one's triangles whose every vertex lies within half its local spacing of the
+   * largest one (a second layer over that surface, CoconeStats::dropped_layers). */
   std::size_t min_component_triangles = 10;
 
   /** \brief Empty when valid, else what is wrong. */
@@ -104,6 +106,7 @@ struct CoconeStats
   std::size_t stitched_triangles = 0; ///< triangles of those bands
   std::size_t flipped_edges = 0;      ///< edges between ear-clipped triangles flipped to bend the surface less
   std::size_t components = 0;
+  std::size_t dropped_layers = 0;  ///< small pieces dropped as second layers over the largest one
   std::size_t sealed_loops = 0;  ///< boundary loops sealed by the watertight option
   std::size_t triangles = 0;       ///< in the output
   std::size_t used_vertices = 0;   ///< distinct vertices referenced by the output
