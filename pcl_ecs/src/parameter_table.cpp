@@ -54,8 +54,8 @@ std::vector<ParameterInfo> makeTable()
        true},
       {"no-rep-fit", "representative_fit", "", &P::representative_fit, "", false, 0, 0, false, false, false,
        "true or false",
-       "keep the optimised point's height instead of moving a smooth ball's representative onto the quadratic "
-       "fitted to its points (the paper's method)",
+       "keep the optimised point (the paper's method) instead of moving a smooth ball's representative onto the "
+       "quadratic fitted to its points, and representing a ball no quadratic fits by its point nearest to it",
        true},
       {"no-relax", "relax_representatives", "", &P::relax_representatives, "", false, 0, 0, false, false, false,
        "true or false",
