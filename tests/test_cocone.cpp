@@ -601,6 +601,46 @@ TEST(CoconeCleanUp, EarClippedTrianglesAreFlippedToFollowTheSurface)
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
 
+TEST(CoconeCleanUp, AHoleClosedButForAGapWiderThanTheGuardKeepsItsTriangles)
+{
+  // A sphere without its northern cap: one planar hole, a regular 24-gon of circumradius ρ (ring 3
+  // of 12). Shortest chord first, the ear clipping takes every other vertex (chords 0.52 ρ), then
+  // every other one of the 12-gon left (chords ρ), then needs the 6-gon's chords, √3 ρ. With the
+  // gap guard (5 × the spacing) at 1.3 ρ it stops at that 6-gon: the 18 triangles made stay, and
+  // so does the 6-edge gap. At 0.8 ρ it stops at the 12-gon, more than 8 vertices: nothing is
+  // added. At 2 ρ the hole is closed (22 triangles, a closed sphere).
+  const UvSphere s = uvSphere(12, 24);
+  const double rho = std::sin(3.14159265358979323846 * 3 / 13);
+  std::vector<Triangle> walked;
+  for (std::size_t b = 3; b < s.bands.size(); ++b)
+    walked.insert(walked.end(), s.bands[b].begin(), s.bands[b].end());
+  struct Case
+  {
+    double guard_over_rho;
+    std::size_t filled, narrowed, boundary_edges;
+  };
+  for (const Case& c : {Case{1.3, 18, 1, 6}, Case{0.8, 0, 0, 24}, Case{2.0, 22, 0, 0}})
+  {
+    SCOPED_TRACE(c.guard_over_rho);
+    pcl_ecs::surface::CoconeStats st;
+    const double spacing = c.guard_over_rho * rho / CoconeParameters().max_edge_ratio;
+    const std::vector<Triangle> mesh = cleanUpOnly(s.points, spacing, walked, st);
+    const MeshTopology t = analyzeTopology(s.points.size(), mesh);
+    EXPECT_TRUE(t.isManifold());
+    EXPECT_TRUE(t.consistently_oriented);
+    EXPECT_EQ(t.components, 1u);
+    EXPECT_EQ(st.filled_triangles, c.filled);
+    EXPECT_EQ(st.narrowed_loops, c.narrowed);
+    EXPECT_EQ(t.boundary_edges, c.boundary_edges);
+    EXPECT_EQ(t.boundary_loops, c.boundary_edges > 0 ? 1u : 0u);
+    EXPECT_TRUE(facesOut(s.points, mesh));
+    // Every added triangle keeps within the guard.
+    for (std::size_t i = walked.size(); i < mesh.size(); ++i)
+      for (int k = 0; k < 3; ++k)
+        EXPECT_LE((s.points[mesh[i][k]] - s.points[mesh[i][(k + 1) % 3]]).norm(), c.guard_over_rho * rho * (1 + 1e-9));
+  }
+}
+
 TEST(CoconeScan, BunnyIsAManifoldCloseToTheReference)
 {
   const std::string cloud_path = pcl_ecs_test::sharedData("bunny.pcd");

@@ -152,6 +152,7 @@ nlohmann::json meshStatsJson(const MeshRun& run, const surface::CoconeParameters
                  {"filled_triangles", s.filled_triangles},
                  {"reoriented_pieces", s.reoriented_pieces},
                  {"stitched_loops", s.stitched_loops},
+                 {"narrowed_loops", s.narrowed_loops},
                  {"dropped_layers", s.dropped_layers},
                  {"stitched_triangles", s.stitched_triangles},
                  {"flipped_edges", s.flipped_edges},

@@ -69,7 +69,9 @@ struct CoconeParameters
    * every chord the clipping needs stays within the gap guard (max_edge_ratio × the local
    * spacing): the places where the walk met a sliver from two sides, slits along sharp edges and
    * spots a few samples short. An opening wider than the guard (a scan's border, a cut) stays
-   * open whatever its length; the bound only caps the work (quadratic in a loop's length).
+   * open whatever its length; a loop the clipping closes but for at most 8 vertices, whose last
+   * chords are wider than the guard, keeps its triangles and that gap stays open
+   * (CoconeStats::narrowed_loops). The bound only caps the work (quadratic in a loop's length).
    * 0 disables it. */
   std::size_t fill_hole_edges = 2000;
   /** Close the surface into a watertight one for closed objects: after the steps above, every
@@ -104,6 +106,7 @@ struct CoconeStats
   std::size_t reoriented_pieces = 0;  ///< pieces after the first reversed to agree with the surface around them
   std::size_t stitched_loops = 0;     ///< pairs of facing boundary loops joined by a band
   std::size_t stitched_triangles = 0; ///< triangles of those bands
+  std::size_t narrowed_loops = 0;     ///< holes closed but for a gap of at most 8 vertices wider than the guard
   std::size_t flipped_edges = 0;      ///< edges between ear-clipped triangles flipped to bend the surface less
   std::size_t components = 0;
   std::size_t dropped_layers = 0;  ///< small pieces dropped as second layers over the largest one
