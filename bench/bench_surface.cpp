@@ -50,6 +50,7 @@ struct Input
   std::string name, reference;  // reference: a mesh file, or empty
   bool one_sided = false;       // the cloud sees only part of the reference (a single range view)
   std::vector<Eigen::Vector3d> points;
+  std::vector<double> radius;  // per point, its ball's radius (pointRadii); empty for a raw scan
 };
 
 struct MethodResult
@@ -105,7 +106,7 @@ Input simplified(std::string name, std::string reference, bool one_sided, const 
     f.setTargetSize(static_cast<std::size_t>(std::lround(ratio * static_cast<double>(cloud->size()))));
   pcl::PointCloud<pcl::PointXYZ> out;
   f.filter(out);
-  return Input{std::move(name), std::move(reference), one_sided, fromCloud(out)};
+  return Input{std::move(name), std::move(reference), one_sided, fromCloud(out), pointRadii(f.getResult())};
 }
 
 /// Normals by PCA of 20 neighbours, oriented away from the centroid (the inputs are closed-ish
@@ -176,7 +177,7 @@ MethodResult runCocone(const Input& in)
   r.method = "Cocone (pcl_ecs)";
   r.vertices = in.points;
   const auto t0 = Clock::now();
-  const auto res = surface::coconeReconstruct(in.points);
+  const auto res = surface::coconeReconstruct(in.points, surface::CoconeParameters(), in.radius);
   r.seconds = since(t0);
   r.triangles = res.triangles;
   const auto& s = res.stats;

@@ -520,7 +520,7 @@ int runTool(int argc, char** argv)
   std::optional<MeshRun> mesh;
   if (!o.mesh.empty())
   {
-    mesh = meshCloud(r.output, o.cocone);
+    mesh = meshCloud(r.output, o.cocone, pointRadii(r.result));
     if (!mesh->result.ok())
       throw ToolError(kExitInput, o.input + ": the simplified cloud cannot be meshed: " + mesh->result.error);
   }

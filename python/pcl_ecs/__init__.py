@@ -47,6 +47,9 @@ class Result:
                     row per ball of the cover, in input units
     summary         dict: the same keys as `pcd_simplify --stats` (parameters, counts, geometry,
                     timings_s, target_reached)
+    point_radius    (M,) float64: the radius of the ball each output point stands for (0 for a
+                    feature point and an input point kept as it is); `reconstruct(points,
+                    radius=point_radius)` uses it
     """
     points: np.ndarray
     labels: np.ndarray
@@ -54,6 +57,7 @@ class Result:
     input_to_output: np.ndarray
     balls: np.ndarray
     summary: Dict[str, Any]
+    point_radius: Optional[np.ndarray] = None
 
 
 def _as_points(points: Any) -> np.ndarray:
@@ -109,7 +113,8 @@ def simplify(points: Any, *, normals: Any = None, colors: Any = None, intensity:
     balls["error"] = r["ball_error"]
     balls["replaced"] = r["ball_replaced"]
     return Result(points=r["points"], labels=r["labels"], source_index=r["source_index"],
-                  input_to_output=r["input_to_output"], balls=balls, summary=json.loads(r["summary_json"]))
+                  input_to_output=r["input_to_output"], balls=balls, summary=json.loads(r["summary_json"]),
+                  point_radius=r["point_radius"])
 
 
 def read(path: str) -> Dict[str, np.ndarray]:
@@ -139,7 +144,13 @@ def write(path: str, points: Any, *, normals: Any = None, colors: Any = None, in
                  _optional(intensity, np.float32), extra)
 
 
-def reconstruct(points: Any) -> Tuple[np.ndarray, np.ndarray]:
+def reconstruct(points: Any, radius: Any = None) -> Tuple[np.ndarray, np.ndarray]:
     """Cocone surface through the points: (vertices (N, 3) float64, triangles (T, 3) int64 indices
-    into them), manifold and oriented. Raises ValueError when no surface can be made."""
-    return _core._reconstruct(np.ascontiguousarray(np.asarray(points), dtype=np.float64))
+    into them), manifold and oriented. Raises ValueError when no surface can be made.
+
+    `radius`, optional, (N,): the radius of the ball each point stands for (`Result.point_radius`
+    of `simplify`; 0 where unknown). Triangles joining two points whose balls do not overlap
+    (farther apart than 1.5 × the sum of their radii) are then refused: they cross gaps, such as
+    between a gear's teeth, that the sparse points alone do not show."""
+    return _core._reconstruct(np.ascontiguousarray(np.asarray(points), dtype=np.float64),
+                              None if radius is None else np.ascontiguousarray(np.asarray(radius), dtype=np.float64))

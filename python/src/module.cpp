@@ -233,6 +233,7 @@ nb::dict simplify(nb::ndarray<nb::c_contig, nb::device::cpu> points, nb::object 
   out["ball_tolerance"] = owned(std::move(tolerance), {nb_balls});
   out["ball_error"] = owned(std::move(error), {nb_balls});
   out["ball_replaced"] = owned(std::move(replaced), {nb_balls});
+  out["point_radius"] = owned(pcl_ecs::pointRadii(r), {m});
   out["summary_json"] = pcl_ecs::tools::runStatsJson(r.summary, params, target_ratio).dump();
   return out;
 }
@@ -310,7 +311,8 @@ void writeFile(const std::string& path, nb::ndarray<nb::c_contig, nb::device::cp
   }
 }
 
-std::pair<nb::ndarray<nb::numpy, double>, nb::ndarray<nb::numpy, std::int64_t>> reconstruct(Array<const double> points)
+std::pair<nb::ndarray<nb::numpy, double>, nb::ndarray<nb::numpy, std::int64_t>> reconstruct(Array<const double> points,
+                                                                                             nb::object radius)
 {
   if (points.ndim() != 2 || points.shape(1) != 3)
     throw nb::value_error("points must be an (N, 3) float64 array");
@@ -318,10 +320,18 @@ std::pair<nb::ndarray<nb::numpy, double>, nb::ndarray<nb::numpy, std::int64_t>> 
   std::vector<Eigen::Vector3d> pts(n);
   for (std::size_t i = 0; i < n; ++i)
     pts[i] = Eigen::Vector3d(points.data()[3 * i], points.data()[3 * i + 1], points.data()[3 * i + 2]);
+  std::vector<double> sample_radius;
+  if (!radius.is_none())
+  {
+    const auto r = nb::cast<Array<const double>>(radius);
+    if (r.ndim() != 1 || r.shape(0) != n)
+      throw nb::value_error("radius must be an (N,) float64 array, N the number of points");
+    sample_radius.assign(r.data(), r.data() + n);
+  }
   pcl_ecs::surface::CoconeResult r;
   {
     nb::gil_scoped_release release;
-    r = pcl_ecs::surface::coconeReconstruct(pts);
+    r = pcl_ecs::surface::coconeReconstruct(pts, pcl_ecs::surface::CoconeParameters(), sample_radius);
   }
   if (!r.ok())
     throw nb::value_error(r.error.c_str());
@@ -466,7 +476,7 @@ NB_MODULE(_core, m)
   m.def("_read", &readFile, "path"_a);
   m.def("_write", &writeFile, "path"_a, "points"_a, "normals"_a.none(), "colors"_a.none(), "intensity"_a.none(),
         "fields"_a.none());
-  m.def("_reconstruct", &reconstruct, "points"_a);
+  m.def("_reconstruct", &reconstruct, "points"_a, "radius"_a.none());
   using pcl_ecs::stream::TiledRun;
   nb::class_<TiledRun>(m, "_TiledRun")
       .def("__init__",

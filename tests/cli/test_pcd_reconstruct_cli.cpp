@@ -215,12 +215,16 @@ TEST_F(MeshCli, SimplifyThenMeshTheBunny)
   EXPECT_GE(static_cast<double>(v), 0.95 * static_cast<double>(simplified));
   EXPECT_LE(t.boundary_loops, 20u);
   EXPECT_EQ(j["mesh"]["topology"]["boundary_loops"], t.boundary_loops);
+  // pcd_simplify gives Cocone each point's ball radius: it refuses the triangles between balls that
+  // do not overlap (pcd_reconstruct, on the points alone, knows no radius).
+  EXPECT_GT(j["mesh"]["counts"]["apart_triangles"].get<std::size_t>(), 0u);
 
   // --watertight closes it.
-  r = run(kReconstruct, path("b.pcd") + " " + path("w.ply") + " --watertight");
+  r = run(kReconstruct, path("b.pcd") + " " + path("w.ply") + " --watertight --stats " + path("w.json"));
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("closed manifold"), std::string::npos) << r.out;
   EXPECT_TRUE(plyTopology(path("w.ply")).isClosedManifold());
+  EXPECT_EQ(nlohmann::json::parse(slurp(path("w.json")))["counts"]["apart_triangles"].get<std::size_t>(), 0u);
 }
 
 TEST_F(MeshCli, SimplifiedClosedShapesAreMeshedWithoutHoles)

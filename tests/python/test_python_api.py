@@ -203,6 +203,36 @@ def test_reconstruct_closes_a_sphere():
     assert len(np.unique(tri)) - len(counts) + len(tri) == 2  # Euler characteristic of a sphere
 
 
+def test_point_radius_is_each_output_points_ball():
+    fields = pcl_ecs.read(SHARED / "bunny.pcd")
+    points = np.stack([fields["x"], fields["y"], fields["z"]], axis=1)
+    res = pcl_ecs.simplify(points, target_ratio=0.1)
+    r = res.point_radius
+    assert r.shape == (len(res.points),) and r.dtype == np.float64
+    assert (r[res.labels == 1] == 0).all(), "a feature point stands for no ball"
+    # Each ball stands behind exactly one output point: the radii are the balls' radii, one each.
+    assert np.array_equal(np.sort(r[res.labels == 2]), np.sort(res.balls["radius"]))
+
+
+def test_reconstruct_refuses_triangles_between_balls_that_do_not_overlap():
+    # A sphere whose northern cap (z > 0.5) carries radii of a tenth of the spacing: no Cocone
+    # triangle may join two cap points (1.5 x the sum of their radii is far below any edge), so the
+    # cap has no triangle of its own; without radii it is meshed like the rest.
+    i = np.arange(3000)
+    z = 1.0 - 2.0 * (i + 0.5) / 3000
+    s = np.sqrt(1.0 - z * z)
+    t = np.pi * (3.0 - np.sqrt(5.0)) * i
+    pts = np.stack([s * np.cos(t), s * np.sin(t), z], axis=1)
+    radius = np.where(z > 0.5, 0.1 * np.sqrt(4 * np.pi / 3000), 0.0)
+    _, tri = pcl_ecs.reconstruct(pts, radius=radius)
+    _, tri0 = pcl_ecs.reconstruct(pts)
+    assert ((radius[tri] > 0).sum(axis=1) < 2).all(), "a triangle with an edge between two cap points"
+    assert (radius[tri0] > 0).all(axis=1).sum() > 500
+    assert ((radius[tri] == 0).all(axis=1).sum() == (radius[tri0] == 0).all(axis=1).sum())
+    with pytest.raises(ValueError, match="N the number of points"):
+        pcl_ecs.reconstruct(pts, radius=radius[:-1])
+
+
 # ---- the examples of docs/PYTHON.md --------------------------------------------------------------
 
 def test_example_laz_to_laz_with_laspy_keeps_every_dimension(tmp_path):

@@ -83,7 +83,8 @@ std::string coconeFlagsHelp()
   return s.str();
 }
 
-MeshRun meshCloud(const pcl::PCLPointCloud2& cloud, const surface::CoconeParameters& params)
+MeshRun meshCloud(const pcl::PCLPointCloud2& cloud, const surface::CoconeParameters& params,
+                  const std::vector<double>& sample_radius)
 {
   MeshRun run;
   pcl::PointCloud<pcl::PointXYZ> xyz;
@@ -92,7 +93,7 @@ MeshRun meshCloud(const pcl::PCLPointCloud2& cloud, const surface::CoconeParamet
   pts.reserve(xyz.size());
   for (const auto& p : xyz)
     pts.emplace_back(p.x, p.y, p.z);
-  run.result = surface::coconeReconstruct(pts, params);
+  run.result = surface::coconeReconstruct(pts, params, sample_radius);
   if (!run.result.ok())
     return run;
   run.topology = surface::analyzeTopology(pts.size(), run.result.triangles);
@@ -146,6 +147,7 @@ nlohmann::json meshStatsJson(const MeshRun& run, const surface::CoconeParameters
                  {"hull_vertices", s.hull_vertices},
                  {"boundary_samples", s.boundary_samples},
                  {"gap_triangles", s.gap_triangles},
+                 {"apart_triangles", s.apart_triangles},
                  {"candidate_triangles", s.candidate_triangles},
                  {"pruned_triangles", s.pruned_triangles},
                  {"extracted_triangles", s.extracted_triangles},

@@ -10,6 +10,7 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 namespace pcl_ecs
 {
@@ -33,8 +34,10 @@ struct MeshRun
   surface::VertexColors colors;  ///< filled when the cloud has rgb / rgba
 };
 
-/** \brief Mesh the points of `cloud` (x, y, z; rgb carried over when present). */
-MeshRun meshCloud(const pcl::PCLPointCloud2& cloud, const surface::CoconeParameters& params);
+/** \brief Mesh the points of `cloud` (x, y, z; rgb carried over when present); `sample_radius`,
+ * per point or empty, as surface::coconeReconstruct takes it (a simplified cloud's pointRadii). */
+MeshRun meshCloud(const pcl::PCLPointCloud2& cloud, const surface::CoconeParameters& params,
+                  const std::vector<double>& sample_radius = {});
 
 /** \brief Write `run` to `path` in `format`. Throws io::FileError. */
 void writeMeshFile(const std::string& path, surface::MeshFormat format, const MeshRun& run);

@@ -117,4 +117,20 @@ struct Result
   void clear() { *this = Result{}; }
 };
 
+/** \brief Per output point, the radius of the ball it stands for; 0 for a feature point and for an
+ * input point kept as it is (a ball of radius 0). The sample radii surface::coconeReconstruct and
+ * Cocone<PointT>::setSampleRadii take: with them Cocone refuses triangles between balls that do
+ * not overlap. */
+inline std::vector<double> pointRadii(const Result& r)
+{
+  std::vector<double> radius(r.labels.size(), 0.0);
+  for (std::size_t o = 0; o < r.ball_of_output.size() && o < radius.size(); ++o)
+  {
+    const std::int64_t b = r.ball_of_output[o];
+    if (b >= 0 && static_cast<std::size_t>(b) < r.balls.size())
+      radius[o] = r.balls[static_cast<std::size_t>(b)].radius;
+  }
+  return radius;
+}
+
 }  // namespace pcl_ecs

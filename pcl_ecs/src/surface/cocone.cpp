@@ -253,7 +253,8 @@ MeshTopology analyzeTopology(std::size_t num_points, const std::vector<Triangle>
 }
 
 
-CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const CoconeParameters& params)
+CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const CoconeParameters& params,
+                               const std::vector<double>& sample_radius)
 {
   CoconeResult result;
   CoconeStats& st = result.stats;
@@ -267,6 +268,12 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
   if (points.size() >= kNone)
   {
     result.error = "too many points for 32-bit indices";
+    return result;
+  }
+  if (!sample_radius.empty() && sample_radius.size() != points.size())
+  {
+    result.error = "sample radii for " + std::to_string(sample_radius.size()) + " points, but " +
+                   std::to_string(points.size()) + " points";
     return result;
   }
   const std::size_t n = points.size();
@@ -291,7 +298,7 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
   poles.cc = {};
   poles.cell_kind = {};
   const std::vector<char> regular = regularSamples(points, poles, facets, radius, params, st);
-  const std::vector<Triangle> cand = candidateTriangles(points, facets, regular, params, st, spacing);
+  const std::vector<Triangle> cand = candidateTriangles(points, facets, regular, params, st, spacing, sample_radius);
   facets = {};
   st.time_cocone = since(t0);
 

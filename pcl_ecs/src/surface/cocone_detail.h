@@ -252,11 +252,12 @@ std::vector<char> regularSamples(const std::vector<Eigen::Vector3d>& points, con
                                  const CoconeParameters& params, CoconeStats& st);
 
 /// The candidate triangles: those accepted by the cocones of all their regular vertices (at least
-/// one), without the ones that span a gap in the sampling, in a canonical order. `spacing` gets
-/// the local sample spacing per vertex (the median candidate edge length there).
+/// one), without the ones that span a gap in the sampling or, given `sample_radius` (per point, or
+/// empty), join two balls that do not overlap, in a canonical order. `spacing` gets the local
+/// sample spacing per vertex (the median candidate edge length there).
 std::vector<Triangle> candidateTriangles(const std::vector<Eigen::Vector3d>& points, const std::vector<Facet>& facets,
                                          const std::vector<char>& regular, const CoconeParameters& params,
-                                         CoconeStats& st, std::vector<double>& spacing);
+                                         CoconeStats& st, std::vector<double>& spacing, const std::vector<double>& sample_radius);
 
 /// Step 5: prune the triangles at sharp edges (an angular gap above sharp_edge_angle) and those
 /// with two free edges, until none is left; returns which candidates are alive.

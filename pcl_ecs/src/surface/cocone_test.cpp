@@ -180,11 +180,12 @@ std::vector<char> regularSamples(const std::vector<Eigen::Vector3d>& points, con
 }
 
 /// The candidate triangles: those accepted by the cocones of all their regular vertices (at least
-/// one), without the ones that span a gap in the sampling, in a canonical order. `spacing` gets
-/// the local sample spacing per vertex (the median candidate edge length there).
+/// one), without the ones that span a gap in the sampling or, given each sample's ball radius,
+/// join two balls that do not overlap, in a canonical order. `spacing` gets the local sample
+/// spacing per vertex (the median candidate edge length there).
 std::vector<Triangle> candidateTriangles(const std::vector<Eigen::Vector3d>& points, const std::vector<Facet>& facets,
                                          const std::vector<char>& regular, const CoconeParameters& params,
-                                         CoconeStats& st, std::vector<double>& spacing)
+                                         CoconeStats& st, std::vector<double>& spacing, const std::vector<double>& sample_radius)
 {
   const std::size_t n = points.size();
   std::vector<Triangle> cand;
@@ -243,6 +244,27 @@ std::vector<Triangle> candidateTriangles(const std::vector<Eigen::Vector3d>& poi
                                        (points[t[2]] - points[t[0]]).norm()});
       if (longest > params.max_edge_ratio * local)
         ++st.gap_triangles;
+      else
+        cand[kept++] = t;
+    }
+    cand.resize(kept);
+  }
+  if (!sample_radius.empty())
+  {
+    // Samples whose balls do not overlap are not neighbours on the surface (kApartBallRatio).
+    auto known = [&](std::uint32_t v) { return std::isfinite(sample_radius[v]) && sample_radius[v] > 0.0; };
+    std::size_t kept = 0;
+    for (const Triangle& t : cand)
+    {
+      bool apart = false;
+      for (int k = 0; k < 3 && !apart; ++k)
+      {
+        const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+        apart = known(a) && known(b) &&
+                (points[a] - points[b]).norm() > kApartBallRatio * (sample_radius[a] + sample_radius[b]);
+      }
+      if (apart)
+        ++st.apart_triangles;
       else
         cand[kept++] = t;
     }

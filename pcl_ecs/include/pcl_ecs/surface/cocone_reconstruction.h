@@ -14,6 +14,7 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace pcl_ecs
@@ -53,6 +54,12 @@ public:
   void setFillHoleEdges(std::size_t edges) { params_.fill_hole_edges = edges; }
   std::size_t getFillHoleEdges() const { return params_.fill_hole_edges; }
 
+  /** \brief Per point of the input cloud, the radius of the ball it stands for (pointRadii of a
+   * FeatureAwareCoverSimplify result, whose output cloud is this input; 0 where unknown): triangles
+   * joining two balls that do not overlap are refused (surface::kApartBallRatio). Empty (the
+   * default): no radius known. A size other than the input cloud's fails reconstruct(). */
+  void setSampleRadii(std::vector<double> radius) { radius_ = std::move(radius); }
+  const std::vector<double>& getSampleRadii() const { return radius_; }
   /** \brief What the last reconstruct() did; the error is empty on success. */
   const surface::CoconeStats& getStats() const { return stats_; }
   const std::string& getLastError() const { return error_; }
@@ -74,7 +81,22 @@ protected:
       const PointInT& p = cloud[static_cast<std::size_t>(idx)];
       pts.emplace_back(p.x, p.y, p.z);
     }
-    const surface::CoconeResult r = surface::coconeReconstruct(pts, params_);
+    std::vector<double> radius;
+    if (!radius_.empty())
+    {
+      if (radius_.size() != cloud.size())
+      {
+        error_ = "sample radii for " + std::to_string(radius_.size()) + " points, but the input cloud has " +
+                 std::to_string(cloud.size());
+        stats_ = surface::CoconeStats{};
+        PCL_ERROR("[pcl_ecs::%s::reconstruct] %s\n", getClassName().c_str(), error_.c_str());
+        return;
+      }
+      radius.reserve(indices.size());
+      for (const auto idx : indices)
+        radius.push_back(radius_[static_cast<std::size_t>(idx)]);
+    }
+    const surface::CoconeResult r = surface::coconeReconstruct(pts, params_, radius);
     stats_ = r.stats;
     error_ = r.error;
     if (!r.ok())
@@ -93,6 +115,7 @@ protected:
 
 private:
   surface::CoconeParameters params_;
+  std::vector<double> radius_;
   surface::CoconeStats stats_;
   std::string error_;
 };
