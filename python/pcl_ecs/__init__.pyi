@@ -45,6 +45,7 @@ class Result:
     input_to_output: npt.NDArray[np.int64]
     balls: np.ndarray
     summary: Dict[str, Any]
+    point_radius: Optional[npt.NDArray[np.float64]]
 
 def parameter_names() -> Tuple[str, ...]: ...
 def simplify(
@@ -88,4 +89,6 @@ def write(
     intensity: Optional[npt.ArrayLike] = None,
     fields: Optional[Mapping[str, npt.ArrayLike]] = None,
 ) -> None: ...
-def reconstruct(points: npt.ArrayLike) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]: ...
+def reconstruct(
+    points: npt.ArrayLike, radius: Optional[npt.ArrayLike] = None
+) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]: ...
