@@ -349,8 +349,10 @@ TEST(CoconeSampleRadii, NoTriangleJoinsTwoBallsThatDoNotOverlap)
 {
   // A sphere of 3000 points. Radii far larger than any edge refuse nothing: the same mesh as
   // without radii. Radii of a tenth of the spacing on the northern cap (z > 0.5) and unknown (0)
-  // elsewhere: every triangle with an edge between two cap points is refused (checked by brute
-  // force over the result), the rest of the sphere is meshed as before.
+  // elsewhere: no edge is longer than kApartBallRatio × the sum of its ends' radii (checked by brute
+  // force over the result without the hole filling, which the rule does not bind), which leaves
+  // few edges between cap points (only pairs of the random sampling closer than 0.4 spacings);
+  // the rest of the sphere is meshed as before.
   const auto pts = randomSphere(3000, 1.0, 5);
   const auto plain = coconeReconstruct(pts);
   ASSERT_TRUE(plain.ok()) << plain.error;
@@ -371,23 +373,31 @@ TEST(CoconeSampleRadii, NoTriangleJoinsTwoBallsThatDoNotOverlap)
       ++cap;
     }
   ASSERT_GT(cap, 500u);
-  const auto r = coconeReconstruct(pts, CoconeParameters(), radius);
+  CoconeParameters no_fill;
+  no_fill.fill_hole_edges = 0;
+  const auto r = coconeReconstruct(pts, no_fill, radius);
   ASSERT_TRUE(r.ok()) << r.error;
   EXPECT_GT(r.stats.apart_triangles, 0u);
+  const auto capEdges = [&](const std::vector<Triangle>& tris) {
+    std::set<std::pair<std::uint32_t, std::uint32_t>> e;
+    for (const Triangle& t : tris)
+      for (int k = 0; k < 3; ++k)
+        if (radius[t[k]] > 0 && radius[t[(k + 1) % 3]] > 0)
+          e.emplace(std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3]));
+    return e;
+  };
+  const auto without = coconeReconstruct(pts, no_fill);
   std::size_t below = 0, below_plain = 0;
   for (const Triangle& t : r.triangles)
-  {
-    for (int k = 0; k < 3; ++k)
-    {
-      const std::uint32_t a = t[k], b = t[(k + 1) % 3];
-      if (radius[a] > 0 && radius[b] > 0)
-        ADD_FAILURE() << "edge " << a << "-" << b << " joins two cap points";
-    }
     below += pts[t[0]].z() < 0.3 && pts[t[1]].z() < 0.3 && pts[t[2]].z() < 0.3 ? 1 : 0;
-  }
-  for (const Triangle& t : plain.triangles)
+  for (const Triangle& t : without.triangles)
     below_plain += pts[t[0]].z() < 0.3 && pts[t[1]].z() < 0.3 && pts[t[2]].z() < 0.3 ? 1 : 0;
   EXPECT_EQ(below, below_plain);
+  const auto kept = capEdges(r.triangles);
+  for (const auto& [a, b] : kept)
+    EXPECT_LE((pts[a] - pts[b]).norm(), pcl_ecs::surface::kApartBallRatio * (radius[a] + radius[b]))
+        << "edge " << a << "-" << b;
+  EXPECT_LT(kept.size(), capEdges(without.triangles).size() / 50);
   EXPECT_TRUE(topologyOf(pts, r).isManifold());
 
   // Radii that do not match the points, or not finite, are refused or ignored (never read past).
@@ -820,7 +830,7 @@ TEST(CoconeScan, TheSimplifiedGearHasNoTrianglesAcrossItsTeeth)
   // The pinion scan simplified to 10%: between its teeth the sparse representatives of the flanks
   // pass the cocone test across the gaps. Given each point's ball radius (pointRadii), Cocone refuses
   // the triangles joining balls that do not overlap: the mesh lies closer to the reference (its
-  // mean distance 0.90 ×, its largest 0.83 × the ones without radii) and stays manifold.
+  // mean distance 0.91 ×, its largest 0.83 × the ones without radii) and stays manifold.
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
   pcl_ecs::eval::TriangleMesh ref;
   if (pcl::io::loadPCDFile(pcl_ecs_test::sharedData("pinion_scan.pcd"), *cloud) != 0 ||

@@ -216,7 +216,7 @@ def test_point_radius_is_each_output_points_ball():
 
 def test_reconstruct_refuses_triangles_between_balls_that_do_not_overlap():
     # A sphere whose northern cap (z > 0.5) carries radii of a tenth of the spacing: no Cocone
-    # triangle may join two cap points (1.5 x the sum of their radii is far below any edge), so the
+    # triangle may join two cap points (2 x the sum of their radii is far below any edge), so the
     # cap has no triangle of its own; without radii it is meshed like the rest.
     i = np.arange(3000)
     z = 1.0 - 2.0 * (i + 0.5) / 3000
