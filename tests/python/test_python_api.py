@@ -17,12 +17,18 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 SHARED = ROOT.parent / "shared" / "data"
 
 
-def sphere_with_cap(n=6000, dtype=np.float64):
+def fibonacci_sphere(n, dtype=np.float64):
     i = np.arange(n)
     z = 1.0 - 2.0 * (i + 0.5) / n
     s = np.sqrt(1.0 - z * z)
     t = np.pi * (3.0 - np.sqrt(5.0)) * i
-    return np.stack([s * np.cos(t), s * np.sin(t), np.minimum(z, 0.5)], axis=1).astype(dtype)
+    return np.stack([s * np.cos(t), s * np.sin(t), z], axis=1).astype(dtype)
+
+
+def sphere_with_cap(n=6000, dtype=np.float64):
+    pts = fibonacci_sphere(n, dtype)
+    pts[:, 2] = np.minimum(pts[:, 2], 0.5)
+    return pts
 
 
 def test_simplify_equals_pcd_simplify_on_the_bunny(tools, tmp_path):
@@ -190,11 +196,7 @@ def test_write_keeps_any_named_field(tmp_path):
 
 
 def test_reconstruct_closes_a_sphere():
-    i = np.arange(3000)
-    z = 1.0 - 2.0 * (i + 0.5) / 3000
-    s = np.sqrt(1.0 - z * z)
-    t = np.pi * (3.0 - np.sqrt(5.0)) * i
-    pts = np.stack([s * np.cos(t), s * np.sin(t), z], axis=1)
+    pts = fibonacci_sphere(3000)
     v, tri = pcl_ecs.reconstruct(pts)
     assert v.shape == pts.shape and tri.dtype == np.int64
     edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
@@ -218,12 +220,8 @@ def test_reconstruct_refuses_triangles_between_balls_that_do_not_overlap():
     # A sphere whose northern cap (z > 0.5) carries radii of a tenth of the spacing: no Cocone
     # triangle may join two cap points (2 x the sum of their radii is far below any edge), so the
     # cap has no triangle of its own; without radii it is meshed like the rest.
-    i = np.arange(3000)
-    z = 1.0 - 2.0 * (i + 0.5) / 3000
-    s = np.sqrt(1.0 - z * z)
-    t = np.pi * (3.0 - np.sqrt(5.0)) * i
-    pts = np.stack([s * np.cos(t), s * np.sin(t), z], axis=1)
-    radius = np.where(z > 0.5, 0.1 * np.sqrt(4 * np.pi / 3000), 0.0)
+    pts = fibonacci_sphere(3000)
+    radius = np.where(pts[:, 2] > 0.5, 0.1 * np.sqrt(4 * np.pi / 3000), 0.0)
     _, tri = pcl_ecs.reconstruct(pts, radius=radius)
     _, tri0 = pcl_ecs.reconstruct(pts)
     assert ((radius[tri] > 0).sum(axis=1) < 2).all(), "a triangle with an edge between two cap points"
