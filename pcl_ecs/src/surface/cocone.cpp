@@ -272,7 +272,7 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
   }
   if (!sample_radius.empty() && sample_radius.size() != points.size())
   {
-    result.error = "sample radii for " + std::to_string(sample_radius.size()) + " points, but " +
+    result.error = "sample radii for " + std::to_string(sample_radius.size()) + " points, but there are " +
                    std::to_string(points.size()) + " points";
     return result;
   }

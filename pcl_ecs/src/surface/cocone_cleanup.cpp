@@ -328,8 +328,9 @@ std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n)
 
 /// A hole whose ear clipping stops at a chord longer than the gap guard with at most this many
 /// vertices left keeps the triangles made so far; the rest stays open (MeshFill::closeLoops).
-/// Chosen on the closed shapes at 10% and 3% (bench/bench_surface --closed) against 4, 16 and any
-/// size: 8 brings the boundary edges under 0.2% on 14 of 20 runs (10 without the rule, 12 with 4,
+/// Chosen on the closed shapes at 10% and 3% (bench/bench_surface --closed, before Cocone took the
+/// ball radii) against 4, 16 and any size: 8 brings the boundary edges under 0.2% on 14 of 20 runs
+/// (10 without the rule, 12 with 4,
 /// 15 with 16, 16 with any size) with the distance to the reference within Advancing Front's on as
 /// many runs as without it (12); 16 and any size zip long cracks along thin parts (the spool's
 /// flanges at 3%: 1.22 × and 1.73 × farther from the reference than without the rule).

@@ -98,7 +98,7 @@ struct CoconeStats
   std::size_t hull_vertices = 0;
   std::size_t boundary_samples = 0;  ///< samples that failed the ratio / normal conditions
   std::size_t gap_triangles = 0;     ///< cocone triangles refused as spanning a gap (max_edge_ratio)
-  std::size_t apart_triangles = 0;   ///< cocone triangles refused as joining balls that do not overlap (kApartBallRatio)
+  std::size_t apart_triangles = 0;   ///< cocone triangles refused as joining balls far apart (kApartBallRatio)
   std::size_t candidate_triangles = 0;
   std::size_t pruned_triangles = 0;
   std::size_t extracted_triangles = 0;
@@ -152,7 +152,7 @@ constexpr double kApartBallRatio = 2.0;
  *
  * `sample_radius`, optional: per point, the radius of the ball it stands for (a simplified cloud:
  * Result::balls, pointRadii); 0 (or not finite) where unknown (a feature point, a point kept as
- * it is). Candidate triangles joining two balls that do not overlap are refused
+ * it is). Candidate triangles joining two balls far from overlapping are refused
  * (kApartBallRatio, CoconeStats::apart_triangles). Empty: no radius known. Its size must match
  * `points` (else the result is empty with `error` set). */
 CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points,

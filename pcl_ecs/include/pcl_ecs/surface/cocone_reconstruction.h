@@ -56,7 +56,7 @@ public:
 
   /** \brief Per point of the input cloud, the radius of the ball it stands for (pointRadii of a
    * FeatureAwareCoverSimplify result, whose output cloud is this input; 0 where unknown): triangles
-   * joining two balls that do not overlap are refused (surface::kApartBallRatio). Empty (the
+   * joining two balls far from overlapping are refused (surface::kApartBallRatio). Empty (the
    * default): no radius known. A size other than the input cloud's fails reconstruct(). */
   void setSampleRadii(std::vector<double> radius) { radius_ = std::move(radius); }
   const std::vector<double>& getSampleRadii() const { return radius_; }
