@@ -2,6 +2,7 @@
 #include "common/cli.h"
 #include "common/mesh_cli.h"
 
+#include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/cloud_io.h>
 #include <pcl_ecs/version.h>
 
@@ -27,7 +28,9 @@ walked into an oriented 2-manifold. Open surfaces keep their openings (Dey-Giese
 detection). No normals needed. Meant for clouds of a few hundred to a few million points, e.g. the
 output of pcd_simplify; on a dense scan, simplify first.
 
-INPUT   .pcd, .ply or .xyz/.txt/.pts/.asc (x y z, and colour if present)
+INPUT   .pcd, .ply or .xyz/.txt/.pts/.asc (x y z, and colour if present). A field 'ecs_radius'
+        (pcd_simplify --radii: each point's ball radius, 0 where unknown) is used as
+        pcd_simplify --mesh uses it: triangles between balls far from overlapping are refused.
 OUTPUT  .ply (binary), .obj or .vtk, by extension; colour is written to PLY and VTK when the
         input has it. Only the vertices the triangles use are written. Written to a temporary
         file beside OUTPUT and renamed into place on success.
@@ -108,7 +111,19 @@ int run(int argc, char** argv)
   {
     throw ToolError(kExitInput, e.what());
   }
-  const MeshRun mesh = meshCloud(cloud, params);
+  std::vector<double> radius;
+  if (io::fieldIndex(cloud.fields, "ecs_radius") >= 0)
+  {
+    pcl::PCLPointField f;
+    f.name = "ecs_radius";
+    f.offset = 0;
+    f.datatype = pcl::PCLPointField::FLOAT64;
+    f.count = 1;
+    radius.resize(static_cast<std::size_t>(cloud.width) * cloud.height);
+    io::convertRecords(cloud, {f}, sizeof(double), reinterpret_cast<std::uint8_t*>(radius.data()),
+                       Eigen::Vector3d::Zero());
+  }
+  const MeshRun mesh = meshCloud(cloud, params, radius);
   if (!mesh.result.ok())
     throw ToolError(kExitInput, input_path + ": " + mesh.result.error);
 

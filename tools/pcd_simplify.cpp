@@ -84,6 +84,9 @@ Output:
   --compressed        write binary_compressed PCD
   --features FILE     also write the feature points to FILE (.pcd or .ply)
   --labels            add a field 'ecs_label' to each output point: 1 feature, 2 representative
+  --radii             add a field 'ecs_radius' (float) to each output point: the radius of the ball
+                      it stands for, 0 for a feature point; pcd_reconstruct meshes with it as
+                      --mesh does (refusing triangles between balls far from overlapping)
   --mesh FILE         also triangulate the simplified cloud with Cocone and write the mesh to
                       FILE (.ply, .obj or .vtk); the Cocone flags below tune it
   --stats FILE.json   write what was done: parameters, counts, time per stage, largest error,
@@ -119,7 +122,7 @@ struct Options
   surface::CoconeParameters cocone;
   double target_ratio = 0.0;
   io::Encoding encoding = io::Encoding::Binary;
-  bool labels = false, quiet = false, verbose = false;
+  bool labels = false, radii = false, quiet = false, verbose = false;
   bool stream = false, keep_scratch = false, encoding_given = false;
   std::uint64_t memory_limit = 0, kill_after = 0, tile_points = 0;
   std::string scratch;
@@ -187,6 +190,8 @@ Options parseArgs(int argc, char** argv, bool& done)
       o.features = value();
     else if (a == "--labels")
       o.labels = true;
+    else if (a == "--radii")
+      o.radii = true;
     else if (a == "--mesh")
       o.mesh = value();
     else if (a == "--stats")
@@ -212,8 +217,8 @@ Options parseArgs(int argc, char** argv, bool& done)
   {
     if (o.target_ratio > 0.0 || o.params.target_size > 0)
       throw UsageError("--stream takes --terr, not a target size (see docs/STREAMING.md)");
-    if (!o.features.empty() || o.labels || !o.mesh.empty() || o.encoding_given)
-      throw UsageError("--stream writes one file; --features, --labels, --mesh, --ascii and "
+    if (!o.features.empty() || o.labels || o.radii || !o.mesh.empty() || o.encoding_given)
+      throw UsageError("--stream writes one file; --features, --labels, --radii, --mesh, --ascii and "
                        "--compressed are for in-memory runs");
     if (o.params.use_input_normals)
       throw UsageError("--stream estimates the normals; --use-input-normals is for in-memory runs");
@@ -507,6 +512,7 @@ int runTool(int argc, char** argv)
   run_options.target_ratio = o.target_ratio;
   run_options.features = !o.features.empty();
   run_options.labels = o.labels;
+  run_options.radii = o.radii;
   run_options.progress = progress.callback();
   const CloudRun r = simplifyCloud(input, o.params, run_options);
   progress.finish();

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <fstream>
@@ -21,6 +22,7 @@
 #include <nlohmann/json.hpp>
 #include <pcl/PolygonMesh.h>
 #include <pcl/conversions.h>
+#include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
 #include <pcl/point_types.h>
 
@@ -225,6 +227,47 @@ TEST_F(MeshCli, SimplifyThenMeshTheBunny)
   EXPECT_NE(r.out.find("closed manifold"), std::string::npos) << r.out;
   EXPECT_TRUE(plyTopology(path("w.ply")).isClosedManifold());
   EXPECT_EQ(nlohmann::json::parse(slurp(path("w.json")))["counts"]["apart_triangles"].get<std::size_t>(), 0u);
+}
+
+TEST_F(MeshCli, RadiiWrittenBySimplifyGiveReconstructTheSameMesh)
+{
+  // pcd_simplify --radii writes each point's ball radius (0 for the feature points); pcd_reconstruct
+  // reads the field and makes the mesh pcd_simplify --mesh makes, byte for byte.
+  const std::string in = kShared + "/bunny.pcd";
+  if (!fs::exists(in))
+    GTEST_SKIP() << "shared data missing";
+  RunResult r = run(kSimplify, in + " " + path("s.pcd") + " --target-ratio 0.1 --radii --labels --mesh " +
+                                   path("a.ply") + " --stats " + path("a.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  pcl::PCLPointCloud2 cloud;
+  ASSERT_EQ(pcl::io::loadPCDFile(path("s.pcd"), cloud), 0);
+  const int ri = pcl_ecs::io::fieldIndex(cloud.fields, "ecs_radius"), li = pcl_ecs::io::fieldIndex(cloud.fields, "ecs_label");
+  ASSERT_GE(ri, 0);
+  ASSERT_GE(li, 0);
+  std::size_t features = 0, balls = 0;
+  for (std::size_t i = 0; i < cloud.width; ++i)
+  {
+    const std::uint8_t* rec = cloud.data.data() + i * cloud.point_step;
+    float radius = 0;
+    std::memcpy(&radius, rec + cloud.fields[ri].offset, sizeof radius);
+    const std::uint8_t label = rec[cloud.fields[li].offset];
+    EXPECT_TRUE(label == 1 ? radius == 0.0f : radius >= 0.0f) << i;
+    features += label == 1 ? 1 : 0;
+    balls += label == 2 && radius > 0.0f ? 1 : 0;
+  }
+  EXPECT_GT(features, 0u);
+  EXPECT_GT(balls, cloud.width / 2);
+  r = run(kReconstruct, path("s.pcd") + " " + path("b.ply") + " --stats " + path("b.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(slurp(path("a.ply")), slurp(path("b.ply")));
+  const auto a = nlohmann::json::parse(slurp(path("a.json")))["mesh"]["counts"];
+  const auto b = nlohmann::json::parse(slurp(path("b.json")))["counts"];
+  EXPECT_GT(a["apart_triangles"].get<std::size_t>(), 0u);
+  EXPECT_EQ(a["apart_triangles"], b["apart_triangles"]);
+  // Out of core there is one output and no radii.
+  r = run(kSimplify, in + " " + path("t.pcd") + " --stream --radii");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--radii"), std::string::npos) << r.err;
 }
 
 TEST_F(MeshCli, SimplifiedClosedShapesAreMeshedWithoutHoles)

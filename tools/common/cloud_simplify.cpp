@@ -76,6 +76,33 @@ std::size_t distinctFinitePoints(const pcl::PCLPointCloud2& cloud)
   return ids.size();
 }
 
+namespace
+{
+/// Appends to every record of `out` a field `name` of one `datatype` value (`size` bytes), whose
+/// bytes for point i `write(i, dst)` fills.
+template <typename Write>
+void appendPerPoint(pcl::PCLPointCloud2& out, const char* name, std::uint8_t datatype, std::uint32_t size, Write write)
+{
+  const std::uint32_t old_step = out.point_step;
+  const std::size_t m = static_cast<std::size_t>(out.width) * out.height;
+  pcl::PCLPointField f;
+  f.name = name;
+  f.offset = old_step;
+  f.datatype = datatype;
+  f.count = 1;
+  std::vector<std::uint8_t> data(m * (old_step + size));
+  for (std::size_t i = 0; i < m; ++i)
+  {
+    std::memcpy(data.data() + i * (old_step + size), out.data.data() + i * old_step, old_step);
+    write(i, data.data() + i * (old_step + size) + old_step);
+  }
+  out.fields.push_back(f);
+  out.point_step = old_step + size;
+  out.row_step = out.point_step * out.width;
+  out.data = std::move(data);
+}
+}  // namespace
+
 CloudRun simplifyCloud(const pcl::PCLPointCloud2& input, const Parameters& given, const CloudRunOptions& options)
 {
   CloudRun run;
@@ -155,23 +182,15 @@ CloudRun simplifyCloud(const pcl::PCLPointCloud2& input, const Parameters& given
     f.row_step = f.point_step * f.width;
   }
   if (options.labels)
+    appendPerPoint(out, "ecs_label", pcl::PCLPointField::UINT8, 1,
+                   [&](std::size_t i, std::uint8_t* dst) { *dst = static_cast<std::uint8_t>(r.labels[i]); });
+  if (options.radii)
   {
-    const std::uint32_t old_step = out.point_step;
-    pcl::PCLPointField lf;
-    lf.name = "ecs_label";
-    lf.offset = old_step;
-    lf.datatype = pcl::PCLPointField::UINT8;
-    lf.count = 1;
-    std::vector<std::uint8_t> data(m * (old_step + 1));
-    for (std::size_t i = 0; i < m; ++i)
-    {
-      std::memcpy(data.data() + i * (old_step + 1), out.data.data() + i * old_step, old_step);
-      data[i * (old_step + 1) + old_step] = static_cast<std::uint8_t>(r.labels[i]);
-    }
-    out.fields.push_back(lf);
-    out.point_step = old_step + 1;
-    out.row_step = out.point_step * out.width;
-    out.data = std::move(data);
+    const std::vector<double> radius = pointRadii(r);
+    appendPerPoint(out, "ecs_radius", pcl::PCLPointField::FLOAT32, 4, [&](std::size_t i, std::uint8_t* dst) {
+      const auto v = static_cast<float>(radius[i]);
+      std::memcpy(dst, &v, sizeof v);
+    });
   }
   return run;
 }

@@ -34,6 +34,7 @@ struct CloudRunOptions
   double target_ratio = 0.0;  ///< > 0: target size = ratio × the distinct finite input points
   bool features = false;      ///< fill CloudRun::features
   bool labels = false;        ///< append a UINT8 field ecs_label (1 feature, 2 representative)
+  bool radii = false;         ///< append a FLOAT32 field ecs_radius (pointRadii: 0 for a feature point)
   ProgressCallback progress;
 };
 
