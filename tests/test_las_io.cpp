@@ -308,3 +308,121 @@ TEST(LasIo, ALazWithItsChunkTableOffsetPastTheEndReadsTheSameBothWays)
   }
   std::filesystem::remove(path);
 }
+
+// LAZ holds records of at most lazMaxExtraBytes() extra bytes: the codec keeps models for each
+// extra byte before its first point, and the fuzzer found a 749-byte LAS 1.4 header claiming
+// 63,746 of them that made writing it as LAZ take 2 GB. At the limit LAZ is written and read
+// back; one byte more is refused at once when writing, when reading (whole and in chunks), and
+// the same records stay writable as LAS.
+TEST(LasIo, RecordsWithMoreExtraBytesThanLazHoldsAreRefusedBeforeTheCodecAllocates)
+{
+  if (!io::lazSupported())
+    GTEST_SKIP() << "built without LAZ";
+  ASSERT_EQ(io::lazMaxExtraBytes(), 1024u);
+  const std::string path =
+      (std::filesystem::temp_directory_path() / ("pcl_ecs_laz_extra_" + std::to_string(::getpid()) + ".laz")).string();
+  auto expectRefused = [&](const std::string& bytes, const std::string& what) {
+    pcl::PCLPointCloud2 c;
+    std::string whole, chunked;
+    try
+    {
+      io::parseLas(bytes, c);
+    }
+    catch (const io::FormatError& e)
+    {
+      whole = e.what();
+    }
+    {
+      std::ofstream f(path, std::ios::binary | std::ios::trunc);
+      f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    }
+    try
+    {
+      io::LasStreamReader r(path);
+      std::vector<std::uint8_t> chunk;
+      while (r.read(100, chunk) > 0)
+      {
+      }
+    }
+    catch (const io::FormatError& e)
+    {
+      chunked = e.what();
+    }
+    EXPECT_NE(whole.find(what), std::string::npos) << whole;
+    EXPECT_NE(chunked.find(what), std::string::npos) << chunked;
+  };
+  for (const int format : {1, 6})
+  {
+    SCOPED_TRACE(format);
+    pcl::PCLPointCloud2 read;
+    io::LasInfo info;
+    io::parseLas(io::lasBytes(utmCloud(300), nullptr, false), read, &info);
+    info.point_format = static_cast<std::uint8_t>(format);
+    info.version_minor = format >= 6 ? 4 : 2;
+    const std::size_t standard = io::lasStandardRecordLength(format);
+
+    info.record_length = static_cast<std::uint16_t>(standard + 1024);
+    EXPECT_EQ(io::lazCannotWrite(info), "");
+    const std::string laz = io::lasBytes(read, &info, true);
+    pcl::PCLPointCloud2 from_laz, from_las;
+    io::parseLas(laz, from_laz);
+    io::parseLas(io::lasBytes(read, &info, false), from_las);
+    EXPECT_EQ(from_laz.point_step, from_las.point_step);
+    EXPECT_TRUE(from_laz.data == from_las.data);
+
+    // One byte more: the header's record length and the LASzip VLR's extra-bytes item, both + 1.
+    std::string more = laz;
+    const std::uint16_t longer = info.record_length + 1;
+    std::memcpy(&more[105], &longer, 2);
+    const std::size_t vlr = more.find("laszip encoded");
+    ASSERT_NE(vlr, std::string::npos);
+    const std::size_t items = vlr - 2 + 54 + 34;  // the VLR header, then the payload's 34 bytes
+    std::uint16_t n_items = 0;
+    std::memcpy(&n_items, &more[items - 2], 2);
+    int patched = 0;
+    for (std::size_t i = 0; i < n_items; ++i)
+    {
+      std::uint16_t type = 0, size = 0;
+      std::memcpy(&type, &more[items + 6 * i], 2);
+      std::memcpy(&size, &more[items + 6 * i + 2], 2);
+      if (type == 0 || type == 14)  // Byte (formats 0-5), Byte14 (6-10)
+      {
+        EXPECT_EQ(size, 1024u);
+        ++size;
+        std::memcpy(&more[items + 6 * i + 2], &size, 2);
+        ++patched;
+      }
+    }
+    ASSERT_EQ(patched, 1);
+    expectRefused(more, "1025 extra bytes");
+
+    info.record_length = longer;
+    EXPECT_NE(io::lazCannotWrite(info).find("1025 extra bytes"), std::string::npos);
+    try
+    {
+      io::lasBytes(read, &info, true);
+      ADD_FAILURE() << "written as LAZ";
+    }
+    catch (const io::FormatError& e)
+    {
+      EXPECT_NE(std::string(e.what()).find("1025 extra bytes"), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(io::LasStreamWriter(path, read.fields, read.point_step, info, true), io::FormatError);
+    pcl::PCLPointCloud2 as_las;
+    io::parseLas(io::lasBytes(read, &info, false), as_las);
+    EXPECT_EQ(as_las.width, 300u);
+  }
+
+  // The fuzzer's file (its first byte picks the reader): no points, so it reads; written as LAZ
+  // it is refused, at once.
+  std::ifstream found(std::string(PCL_ECS_SOURCE_DIR) + "/tests/fuzz/corpus/laz_63746_extra_bytes", std::ios::binary);
+  const std::string fuzzed((std::istreambuf_iterator<char>(found)), std::istreambuf_iterator<char>());
+  ASSERT_EQ(fuzzed.size(), 750u);
+  pcl::PCLPointCloud2 none;
+  io::LasInfo none_info;
+  io::parseLas(fuzzed.substr(1), none, &none_info);
+  EXPECT_EQ(none.width, 0u);
+  EXPECT_NE(io::lazCannotWrite(none_info).find("63746 extra bytes"), std::string::npos);
+  EXPECT_THROW(io::lasBytes(none, &none_info, true), io::FormatError);
+  std::filesystem::remove(path);
+}

@@ -502,6 +502,11 @@ int runTool(int argc, char** argv)
   {
     throw ToolError(kExitInput, e.what());
   }
+  // A LAZ output of these records must be possible before the work starts.
+  for (const std::string* out : {&o.output, &o.features})
+    if (input_is_las && !out->empty() && io::formatFromPath(*out) == io::Format::Laz)
+      if (const std::string why = io::lazCannotWrite(las); !why.empty())
+        throw ToolError(kExitOutput, *out + ": " + o.input + ": " + why);
   if (o.params.use_input_normals && (io::fieldIndex(input.fields, "normal_x") < 0 ||
                                      io::fieldIndex(input.fields, "normal_y") < 0 ||
                                      io::fieldIndex(input.fields, "normal_z") < 0))

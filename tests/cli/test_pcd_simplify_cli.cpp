@@ -6,6 +6,7 @@
 
 #include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/cloud_io.h>
+#include <pcl_ecs/io/las_io.h>
 
 #include <fcntl.h>
 #include <signal.h>
@@ -297,6 +298,34 @@ TEST_F(Cli, OutputProblemsAreRefusedBeforeAnyWork)
   expectRefused(copy + " " + copy, 2, none, "is the input file");
   expectRefused(copy + " " + path("o.pcd") + " --stats " + copy, 2, none, ".json");
   EXPECT_EQ(slurp(copy), before);
+}
+
+// LAS records with more extra bytes than LAZ holds (io::lazMaxExtraBytes()): a LAZ output (or
+// features file) is refused before the work, in memory and streamed, with nothing written; LAS
+// takes them.
+TEST_F(Cli, ALazOutputOfRecordsWithTooManyExtraBytesIsRefusedBeforeAnyWork)
+{
+  if (!pcl_ecs::io::lazSupported())
+    GTEST_SKIP() << "built without LAZ";
+  pcl::PCLPointCloud2 bunny, read;
+  pcl_ecs::io::readCloud(kShared + "/bunny.pcd", bunny);
+  pcl_ecs::io::LasInfo info;
+  pcl_ecs::io::parseLas(pcl_ecs::io::lasBytes(bunny, nullptr, false), read, &info);
+  info.record_length = static_cast<std::uint16_t>(pcl_ecs::io::lasStandardRecordLength(info.point_format) +
+                                                  pcl_ecs::io::lazMaxExtraBytes() + 1);
+  write("wide.las", pcl_ecs::io::lasBytes(read, &info, false));
+  const std::set<std::string> inputs = {"wide.las"};
+  const std::string in = path("wide.las") + " ";
+  expectRefused(in + path("out.laz"), 4, inputs, "1025 extra bytes");
+  expectRefused(in + path("out.las") + " --features " + path("f.laz"), 4, inputs, "1025 extra bytes");
+  expectRefused(in + path("out.laz") + " --stream", 4, inputs, "1025 extra bytes");
+  const RunResult r = run(in + path("out.las") + " --quiet");
+  EXPECT_EQ(r.code, 0) << r.err;
+  pcl::PCLPointCloud2 out;
+  pcl_ecs::io::LasInfo out_info;
+  pcl_ecs::io::readCloud(path("out.las"), out, &out_info);
+  EXPECT_EQ(out_info.record_length, info.record_length);
+  EXPECT_GT(out.width, 0u);
 }
 
 TEST_F(Cli, ReadsEveryEncoding)

@@ -24,6 +24,7 @@ extern "C"
   };
   struct EcsLazReader;
   struct EcsLazWriter;
+  std::uint64_t ecs_laz_max_extra_bytes();
   int ecs_laz_vlr(std::uint8_t format, std::uint16_t extra_bytes, EcsLazBytes* out, char* err, std::size_t err_cap);
   int ecs_laz_compress(const std::uint8_t* prefix, std::size_t prefix_len, const std::uint8_t* vlr, std::size_t vlr_len,
                        const std::uint8_t* records, std::uint64_t count, std::uint16_t record_len, EcsLazBytes* out,

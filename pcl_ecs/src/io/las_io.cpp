@@ -12,6 +12,7 @@
 #include <cstring>
 #include <limits>
 #include <map>
+#include <sstream>
 
 
 namespace pcl_ecs
@@ -280,6 +281,29 @@ bool lazSupported()
 #else
   return false;
 #endif
+}
+
+std::size_t lazMaxExtraBytes()
+{
+#ifdef PCL_ECS_HAVE_LAZ
+  return static_cast<std::size_t>(ecs_laz_max_extra_bytes());
+#else
+  return 0;
+#endif
+}
+
+std::string lazCannotWrite(const LasInfo& info)
+{
+  if (!lazSupported())
+    return "this build has no LAZ support (built with -DPCL_ECS_WITH_LAZ=OFF)";
+  const std::size_t standard = lasStandardRecordLength(info.point_format);
+  const std::size_t extra = info.record_length > standard ? info.record_length - standard : 0;
+  if (extra <= lazMaxExtraBytes())
+    return {};
+  std::ostringstream s;
+  s << "these records have " << extra << " extra bytes and LAZ holds at most " << lazMaxExtraBytes()
+    << " (the codec keeps up to 45 kB of models per extra byte): write LAS (uncompressed) instead";
+  return s.str();
 }
 
 namespace las

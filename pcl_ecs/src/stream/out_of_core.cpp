@@ -116,6 +116,9 @@ void Runner::prepare(bool plan_if_missing)
   records_in_input_ = reader.recordsInFile(data_offset_);
   if (reader.las())
     las_ = std::make_unique<io::LasInfo>(*reader.las());
+  if (las_ && io::formatFromPath(output_) == io::Format::Laz)
+    if (const std::string why = io::lazCannotWrite(*las_); !why.empty())
+      failRun(output_ + ": " + why);
   input_stamp_ = stampOf(inputs_[0]);
   // The limit is a promise: refused at once when this process cannot keep to it. The plan counts
   // a fixed allowance for the process itself (pcd_simplify holds about 30 MiB at the start), not

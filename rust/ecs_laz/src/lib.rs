@@ -62,6 +62,38 @@ fn run<F: FnOnce() -> Result<(), String>>(err: *mut c_char, err_cap: usize, f: F
     }
 }
 
+/// The most extra bytes per record (LAS extra dimensions, after the point format's fields) that LAZ
+/// is read or written with. The codec keeps arithmetic-coding models for every extra byte before it
+/// reads or writes a point (measured: about 45 kB a byte for point formats 6-10, 7 kB for 0-5), so a
+/// header that claims 63,000 extra bytes would cost 2 GB before the first point; 1,024 bytes (128
+/// doubles) cost at most about 50 MB.
+pub const MAX_EXTRA_BYTES: u64 = 1024;
+
+/// `MAX_EXTRA_BYTES`, for the C++ side.
+#[no_mangle]
+pub extern "C" fn ecs_laz_max_extra_bytes() -> u64 {
+    MAX_EXTRA_BYTES
+}
+
+/// Refuses items whose extra bytes pass `MAX_EXTRA_BYTES`, before the codec allocates for them.
+fn check_extra_bytes(vlr: &LazVlr) -> Result<(), String> {
+    let extra: u64 = vlr
+        .items()
+        .iter()
+        .map(|i| match i.item_type() {
+            LazItemType::Byte(n) | LazItemType::Byte14(n) => u64::from(n),
+            _ => 0,
+        })
+        .sum();
+    if extra > MAX_EXTRA_BYTES {
+        return Err(format!(
+            "its records carry {extra} extra bytes; LAZ is read and written with at most {MAX_EXTRA_BYTES} \
+             (the codec keeps up to 45 kB of models per extra byte): use LAS (uncompressed) for these records"
+        ));
+    }
+    Ok(())
+}
+
 unsafe fn slice<'a>(p: *const u8, n: usize) -> &'a [u8] {
     if n == 0 {
         &[]
@@ -84,6 +116,7 @@ pub extern "C" fn ecs_laz_vlr(
         let items = LazItemRecordBuilder::default_for_point_format_id(format, extra_bytes)
             .map_err(|e| e.to_string())?;
         let vlr = LazVlrBuilder::new(items).build();
+        check_extra_bytes(&vlr)?;
         let mut bytes = Vec::new();
         vlr.write_to(&mut bytes).map_err(|e| e.to_string())?;
         give(out, bytes);
@@ -123,6 +156,7 @@ pub extern "C" fn ecs_laz_compress(
                 vlr.items_size()
             ));
         }
+        check_extra_bytes(&vlr)?;
         let mut cursor = Cursor::new(prefix.to_vec());
         cursor.seek(SeekFrom::End(0)).map_err(|e| e.to_string())?;
         let mut compressor = LasZipCompressor::new(cursor, vlr).map_err(|e| e.to_string())?;
@@ -232,6 +266,7 @@ fn checked_decompressor<'a, R: Read + Seek + Send + Sync + 'a>(
             vlr.items_size()
         ));
     }
+    check_extra_bytes(&vlr)?;
     // The compressor (the payload's first u16): 1 point-wise (one stream, no chunk table), 2
     // point-wise chunked, 3 layered chunked.
     let compressor = if vlr_bytes.len() >= 2 { u16::from_le_bytes([vlr_bytes[0], vlr_bytes[1]]) } else { 0 };
@@ -487,6 +522,7 @@ pub extern "C" fn ecs_laz_writer_open(
         // SAFETY: the caller gives a NUL-terminated path and the length of its buffer.
         let (path, vlr) = unsafe { (path_of(path)?, slice(vlr, vlr_len)) };
         let vlr = LazVlr::from_buffer(vlr).map_err(|e| e.to_string())?;
+        check_extra_bytes(&vlr)?;
         let mut file = OpenOptions::new().read(true).write(true).open(&path).map_err(|e| format!("cannot open it ({e})"))?;
         file.seek(SeekFrom::End(0)).map_err(|e| e.to_string())?;
         let c = LasZipCompressor::new(BufWriter::with_capacity(1 << 20, file), vlr).map_err(|e| e.to_string())?;

@@ -94,6 +94,15 @@ std::string lasBytes(const pcl::PCLPointCloud2& cloud, const LasInfo* like, bool
 /** \brief True when LAZ can be read and written (the library was built with the laz crate). */
 bool lazSupported();
 
+/** \brief The most extra bytes per record (after the point format's fields) that LAZ is read and
+ * written with: the codec keeps models for every extra byte before the first point (up to 45 kB
+ * each), so more is refused as a FormatError. 0 when built without LAZ. */
+std::size_t lazMaxExtraBytes();
+
+/** \brief Why records with the header `info` cannot be written as LAZ (more extra bytes than
+ * lazMaxExtraBytes(), or no LAZ in this build), or empty when they can. */
+std::string lazCannotWrite(const LasInfo& info);
+
 /** \brief The header lasBytes gives a cloud without a LAS origin whose fields are `fields` and
  * whose finite points lie in the box [lo, hi]: point format 0-3, version 1.2, offset the box
  * centre rounded down to an integer, scale the finest power of ten that holds the box in 31-bit
