@@ -54,30 +54,15 @@ void Runner::geometryTask(int t)
     skip[i] = d.is_core[i] ? 0 : 1;
   computeMeanCurvature(*d.cloud, normals, table, skip, tile_threads_, curvature);
   std::vector<std::uint8_t> attr(n * kAttrBytes);
-  // Sums over this tile's own points (each point counted once in all): Σ measure, count,
-  // neighbourhoods that reach past the halo.
+  // Sums over this tile's own points (each point counted once in all): Σ measure (in point order,
+  // so that its rounding does not depend on the threads), count, neighbourhoods that reach past
+  // the halo.
   const Tile& tile = plan_.tree.tiles[static_cast<std::size_t>(t)];
   TileSumsA sums;
   sums.merged = static_cast<double>(d.merged_core);
   for (std::size_t i = 0; i < n; ++i)
-  {
-    PointAttr a;
-    a.normal = normals[i];
-    a.weight = weights[i];
-    a.measure = measure[i];
-    a.curvature = curvature[i];
-    a.store(attr.data() + i * kAttrBytes);
-    if (!d.is_core[i])
-      continue;
-    sums.stats.addMeasure(measure[i]);
-    const Eigen::Vector3d p = plan_.toWorld((*d.cloud)[i].getVector3fMap().cast<double>());
-    const double u = p[plan_.axis_u], v = p[plan_.axis_v];
-    const double room = std::min({u - (tile.lo[0] - plan_.halo), (tile.hi[0] + plan_.halo) - u,
-                                  v - (tile.lo[1] - plan_.halo), (tile.hi[1] + plan_.halo) - v});
-    if (std::sqrt(static_cast<double>(sqrDistance(*d.cloud, i, static_cast<std::size_t>(table.neighbors(i)[k - 1])))) >
-        room * plan_.scale())
-      sums.incomplete += 1.0;
-  }
+    if (d.is_core[i])
+      sums.stats.addMeasure(measure[i]);
   // Eq. 5 is the distance to the nearest non-feature neighbour, and which neighbours are features
   // depends on δ, known only when every tile has passed this phase. Keep, for each own point, the
   // neighbours whose measure is below that of every nearer one: for any δ the first non-feature
@@ -95,36 +80,73 @@ void Runner::geometryTask(int t)
     not_feature = (1.0 - 1e-9) * params_.feature_factor * measure_done_ /
                   static_cast<double>(std::max<std::uint64_t>(1, plan_.finite_points));
   }
+  // The points in one block per thread, each block's lists in its own buffer, joined in order:
+  // the same bytes for any thread count.
+  const int blocks = std::max(1, tile_threads_);
+  std::vector<std::vector<std::uint8_t>> fronts(static_cast<std::size_t>(blocks));
+  std::vector<std::size_t> incomplete(static_cast<std::size_t>(blocks), 0);
   std::vector<std::uint8_t> front_count(n, 0xFF);  // 0xFF: a halo point (not needed)
-  std::vector<std::uint8_t> front;
-  front.reserve(n * 2 * FrontierEntry::kBytes);
-  for (std::size_t i = 0; i < n; ++i)
+#pragma omp parallel for num_threads(blocks) schedule(static, 1)
+  for (int b = 0; b < blocks; ++b)
   {
-    if (!d.is_core[i])
-      continue;
-    const int* nb = table.neighbors(i);
-    double lowest = std::numeric_limits<double>::infinity();
-    std::uint8_t count = 0;
-    for (int j = 0; j < k; ++j)
+    const std::size_t first = n * static_cast<std::size_t>(b) / static_cast<std::size_t>(blocks);
+    const std::size_t last = n * static_cast<std::size_t>(b + 1) / static_cast<std::size_t>(blocks);
+    std::vector<std::uint8_t>& front = fronts[static_cast<std::size_t>(b)];
+    front.reserve((last - first) * 2 * FrontierEntry::kBytes);
+    for (std::size_t i = first; i < last; ++i)
     {
-      const auto q = static_cast<std::size_t>(nb[j]);
-      const double m = measure[q];
-      if (!(m < lowest))
+      PointAttr a;
+      a.normal = normals[i];
+      a.weight = weights[i];
+      a.measure = measure[i];
+      a.curvature = curvature[i];
+      a.store(attr.data() + i * kAttrBytes);
+      if (!d.is_core[i])
         continue;
-      lowest = m;
-      FrontierEntry e;
-      e.d2 = sqrDistance(*d.cloud, i, q);
-      e.index = static_cast<std::uint32_t>(q);
-      const std::size_t at = front.size();
-      front.resize(at + FrontierEntry::kBytes);
-      e.store(front.data() + at);
-      ++count;
-      if (m <= not_feature)
-        break;
+      const int* nb = table.neighbors(i);
+      const Eigen::Vector3d p = plan_.toWorld((*d.cloud)[i].getVector3fMap().cast<double>());
+      const double u = p[plan_.axis_u], v = p[plan_.axis_v];
+      const double room = std::min({u - (tile.lo[0] - plan_.halo), (tile.hi[0] + plan_.halo) - u,
+                                    v - (tile.lo[1] - plan_.halo), (tile.hi[1] + plan_.halo) - v});
+      if (std::sqrt(static_cast<double>(sqrDistance(*d.cloud, i, static_cast<std::size_t>(nb[k - 1])))) >
+          room * plan_.scale())
+        ++incomplete[static_cast<std::size_t>(b)];
+      double lowest = std::numeric_limits<double>::infinity();
+      std::uint8_t count = 0;
+      // Room for all k entries, cut to the ones written: one resize each way per point.
+      const std::size_t start = front.size();
+      front.resize(start + static_cast<std::size_t>(k) * FrontierEntry::kBytes);
+      for (int j = 0; j < k; ++j)
+      {
+        const auto q = static_cast<std::size_t>(nb[j]);
+        const double m = measure[q];
+        if (!(m < lowest))
+          continue;
+        lowest = m;
+        FrontierEntry e;
+        e.d2 = sqrDistance(*d.cloud, i, q);
+        e.index = static_cast<std::uint32_t>(q);
+        e.store(front.data() + start + count * FrontierEntry::kBytes);
+        ++count;
+        if (m <= not_feature)
+          break;
+      }
+      front.resize(start + count * FrontierEntry::kBytes);
+      front_count[i] = count;
     }
-    front_count[i] = count;
   }
-  front_count.insert(front_count.end(), front.begin(), front.end());
+  std::size_t front_bytes = 0;
+  for (std::size_t b = 0; b < fronts.size(); ++b)
+  {
+    sums.incomplete += static_cast<double>(incomplete[b]);
+    front_bytes += fronts[b].size();
+  }
+  front_count.reserve(n + front_bytes);
+  for (std::vector<std::uint8_t>& f : fronts)
+  {
+    front_count.insert(front_count.end(), f.begin(), f.end());
+    std::vector<std::uint8_t>().swap(f);
+  }
   fs::create_directories(paths_.root / "a");
   writeVectorAtomic(paths_.frontier(t), front_count);
   {
