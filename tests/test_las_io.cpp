@@ -70,6 +70,44 @@ double valueOf(const pcl::PCLPointCloud2& c, const std::string& name, std::size_
   ADD_FAILURE() << "no field " << name;
   return 0.0;
 }
+
+/// A LAS / LAZ file's bytes read whole (parseLas) and, written to `path`, a chunk of `chunk`
+/// points at a time (LasStreamReader): each reader's records, or its refusal.
+struct ReadBothWays
+{
+  pcl::PCLPointCloud2 whole;
+  std::vector<std::uint8_t> chunked;
+  std::string whole_error, chunked_error;
+};
+
+ReadBothWays readBothWays(const std::string& bytes, const std::string& path, std::size_t chunk_points)
+{
+  ReadBothWays r;
+  try
+  {
+    io::parseLas(bytes, r.whole);
+  }
+  catch (const io::FormatError& e)
+  {
+    r.whole_error = e.what();
+  }
+  {
+    std::ofstream f(path, std::ios::binary | std::ios::trunc);
+    f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  }
+  try
+  {
+    io::LasStreamReader reader(path);
+    std::vector<std::uint8_t> chunk;
+    while (reader.read(chunk_points, chunk) > 0)
+      r.chunked.insert(r.chunked.end(), chunk.begin(), chunk.end());
+  }
+  catch (const io::FormatError& e)
+  {
+    r.chunked_error = e.what();
+  }
+  return r;
+}
 }  // namespace
 
 TEST(LasIo, ACloudOfAnyOriginGetsAScaleThatHoldsItsCoordinates)
@@ -277,34 +315,10 @@ TEST(LasIo, ALazWithItsChunkTableOffsetPastTheEndReadsTheSameBothWays)
   for (const std::string& bad : files)
   {
     const std::size_t table = &bad - files.data();
-    pcl::PCLPointCloud2 whole;
-    std::string whole_error, chunked_error;
-    try
-    {
-      io::parseLas(bad, whole);
-    }
-    catch (const io::FormatError& e)
-    {
-      whole_error = e.what();
-    }
-    {
-      std::ofstream f(path, std::ios::binary | std::ios::trunc);
-      f.write(bad.data(), static_cast<std::streamsize>(bad.size()));
-    }
-    std::vector<std::uint8_t> all, chunk;
-    try
-    {
-      io::LasStreamReader r(path);
-      while (r.read(333, chunk) > 0)
-        all.insert(all.end(), chunk.begin(), chunk.end());
-    }
-    catch (const io::FormatError& e)
-    {
-      chunked_error = e.what();
-    }
-    EXPECT_EQ(whole_error.empty(), chunked_error.empty()) << table << ": " << whole_error << " / " << chunked_error;
-    if (whole_error.empty() && chunked_error.empty())
-      EXPECT_TRUE(all == whole.data) << table;
+    const ReadBothWays r = readBothWays(bad, path, 333);
+    EXPECT_EQ(r.whole_error.empty(), r.chunked_error.empty()) << table << ": " << r.whole_error << " / " << r.chunked_error;
+    if (r.whole_error.empty() && r.chunked_error.empty())
+      EXPECT_TRUE(r.chunked == r.whole.data) << table;
   }
   std::filesystem::remove(path);
 }
@@ -322,34 +336,9 @@ TEST(LasIo, RecordsWithMoreExtraBytesThanLazHoldsAreRefusedBeforeTheCodecAllocat
   const std::string path =
       (std::filesystem::temp_directory_path() / ("pcl_ecs_laz_extra_" + std::to_string(::getpid()) + ".laz")).string();
   auto expectRefused = [&](const std::string& bytes, const std::string& what) {
-    pcl::PCLPointCloud2 c;
-    std::string whole, chunked;
-    try
-    {
-      io::parseLas(bytes, c);
-    }
-    catch (const io::FormatError& e)
-    {
-      whole = e.what();
-    }
-    {
-      std::ofstream f(path, std::ios::binary | std::ios::trunc);
-      f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    }
-    try
-    {
-      io::LasStreamReader r(path);
-      std::vector<std::uint8_t> chunk;
-      while (r.read(100, chunk) > 0)
-      {
-      }
-    }
-    catch (const io::FormatError& e)
-    {
-      chunked = e.what();
-    }
-    EXPECT_NE(whole.find(what), std::string::npos) << whole;
-    EXPECT_NE(chunked.find(what), std::string::npos) << chunked;
+    const ReadBothWays r = readBothWays(bytes, path, 100);
+    EXPECT_NE(r.whole_error.find(what), std::string::npos) << r.whole_error;
+    EXPECT_NE(r.chunked_error.find(what), std::string::npos) << r.chunked_error;
   };
   for (const int format : {1, 6})
   {
