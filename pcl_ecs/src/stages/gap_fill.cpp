@@ -50,12 +50,13 @@ std::vector<std::size_t> closeGaps(const std::vector<Eigen::Vector3d>& outputs,
     grid.insert(p);
   // Against the outputs alone (read-only grid: in parallel), then greedily in order.
   const std::vector<std::uint8_t> open = farFromGrid(grid, candidates, threads);
+  PointGrid kept_grid(gap);  // the open candidates are far from the outputs: only the kept ones count
   for (std::size_t c = 0; c < candidates.size(); ++c)
   {
-    if (!open[c] || (!kept.empty() && grid.near(candidates[c])))
+    if (!open[c] || (!kept.empty() && kept_grid.near(candidates[c])))
       continue;
     kept.push_back(c);
-    grid.insert(candidates[c]);
+    kept_grid.insert(candidates[c]);
   }
   return kept;
 }
