@@ -6,10 +6,12 @@
 #include <pcl_ecs/io/cloud_io.h>
 #include <pcl_ecs/version.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <sstream>
 
 #include <nlohmann/json.hpp>
 
@@ -30,7 +32,8 @@ output of pcd_simplify; on a dense scan, simplify first.
 
 INPUT   .pcd, .ply or .xyz/.txt/.pts/.asc (x y z, and colour if present). A field 'ecs_radius'
         (pcd_simplify --radii: each point's ball radius, 0 where unknown) is used as
-        pcd_simplify --mesh uses it: triangles between balls far from overlapping are refused.
+        pcd_simplify --mesh uses it: triangles between balls far from overlapping are refused;
+        a negative or non-finite value is refused as a damaged file (exit 3).
 OUTPUT  .ply (binary), .obj or .vtk, by extension; colour is written to PLY and VTK when the
         input has it. Only the vertices the triangles use are written. Written to a temporary
         file beside OUTPUT and renamed into place on success.
@@ -122,6 +125,14 @@ int run(int argc, char** argv)
     radius.resize(static_cast<std::size_t>(cloud.width) * cloud.height);
     io::convertRecords(cloud, {f}, sizeof(double), reinterpret_cast<std::uint8_t*>(radius.data()),
                        Eigen::Vector3d::Zero());
+    for (std::size_t i = 0; i < radius.size(); ++i)
+      if (!(radius[i] >= 0.0) || std::isinf(radius[i]))
+      {
+        std::ostringstream os;
+        os << input_path << ": point " << i << " has ecs_radius " << radius[i]
+           << ": a ball radius is 0 (unknown) or positive and finite";
+        throw ToolError(kExitInput, os.str());
+      }
   }
   const MeshRun mesh = meshCloud(cloud, params, radius);
   if (!mesh.result.ok())

@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <fstream>
 #include <random>
@@ -268,6 +269,33 @@ TEST_F(MeshCli, RadiiWrittenBySimplifyGiveReconstructTheSameMesh)
   r = run(kSimplify, in + " " + path("t.pcd") + " --stream --radii");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("--radii"), std::string::npos) << r.err;
+}
+
+TEST_F(MeshCli, ARadiusFieldThatHoldsNoRadiusIsRefused)
+{
+  // ecs_radius is 0 (unknown) or a positive, finite radius; anything else is a damaged file:
+  // refused with the point and its value, nothing written.
+  const std::string in = kShared + "/bunny.pcd";
+  if (!fs::exists(in))
+    GTEST_SKIP() << "shared data missing";
+  RunResult r = run(kSimplify, in + " " + path("s.pcd") + " --target-ratio 0.1 --radii");
+  ASSERT_EQ(r.code, 0) << r.err;
+  pcl::PCLPointCloud2 cloud;
+  ASSERT_EQ(pcl::io::loadPCDFile(path("s.pcd"), cloud), 0);
+  const int ri = pcl_ecs::io::fieldIndex(cloud.fields, "ecs_radius");
+  ASSERT_GE(ri, 0);
+  for (const float bad : {-1.0f, std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity()})
+  {
+    pcl::PCLPointCloud2 damaged = cloud;
+    std::memcpy(damaged.data.data() + 7 * damaged.point_step + damaged.fields[ri].offset, &bad, sizeof bad);
+    ASSERT_EQ(pcl::io::savePCDFile(path("d.pcd"), damaged, Eigen::Vector4f::Zero(), Eigen::Quaternionf::Identity(), true), 0);
+    r = run(kReconstruct, path("d.pcd") + " " + path("d.ply"));
+    EXPECT_EQ(r.code, 3) << bad << ": " << r.err;
+    EXPECT_NE(r.err.find("point 7 has ecs_radius"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(path("d.ply")));
+  }
+  r = run(kReconstruct, path("s.pcd") + " " + path("s.ply"));
+  EXPECT_EQ(r.code, 0) << r.err;
 }
 
 TEST_F(MeshCli, SimplifiedClosedShapesAreMeshedWithoutHoles)
