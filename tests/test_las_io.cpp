@@ -415,3 +415,40 @@ TEST(LasIo, RecordsWithMoreExtraBytesThanLazHoldsAreRefusedBeforeTheCodecAllocat
   EXPECT_THROW(io::lasBytes(none, &none_info, true), io::FormatError);
   std::filesystem::remove(path);
 }
+
+// A LASzip VLR lists each part of a point format once; the codec keeps models for every item it
+// lists, so a forged list is refused before it allocates (the same bound as the extra bytes'):
+// here the 8 extra bytes of format 1 relabelled as a second GPS time, which keeps the sizes right.
+TEST(LasIo, ALazWhoseVlrListsAnItemTwiceIsRefused)
+{
+  if (!io::lazSupported())
+    GTEST_SKIP() << "built without LAZ";
+  pcl::PCLPointCloud2 read;
+  io::LasInfo info;
+  io::parseLas(io::lasBytes(utmCloud(300), nullptr, false), read, &info);
+  info.point_format = 1;
+  info.record_length = static_cast<std::uint16_t>(io::lasStandardRecordLength(1) + 8);
+  std::string laz = io::lasBytes(read, &info, true);
+  const std::size_t vlr = laz.find("laszip encoded");
+  ASSERT_NE(vlr, std::string::npos);
+  const std::size_t items = vlr - 2 + 54 + 34;
+  std::uint16_t n_items = 0;
+  std::memcpy(&n_items, &laz[items - 2], 2);
+  ASSERT_EQ(n_items, 3u);  // Point10, GpsTime, Byte(8)
+  std::uint16_t type = 0, size = 0;
+  std::memcpy(&type, &laz[items + 12], 2);
+  std::memcpy(&size, &laz[items + 14], 2);
+  ASSERT_EQ(type, 0u);
+  ASSERT_EQ(size, 8u);
+  pcl::PCLPointCloud2 good;
+  io::parseLas(laz, good);  // as written: read
+  EXPECT_EQ(good.width, 300u);
+  type = 7;  // GpsTime11
+  std::memcpy(&laz[items + 12], &type, 2);
+  const std::string path =
+      (std::filesystem::temp_directory_path() / ("pcl_ecs_laz_items_" + std::to_string(::getpid()) + ".laz")).string();
+  const ReadBothWays r = readBothWays(laz, path, 100);
+  EXPECT_NE(r.whole_error.find("twice"), std::string::npos) << r.whole_error;
+  EXPECT_NE(r.chunked_error.find("twice"), std::string::npos) << r.chunked_error;
+  std::filesystem::remove(path);
+}

@@ -75,8 +75,20 @@ pub extern "C" fn ecs_laz_max_extra_bytes() -> u64 {
     MAX_EXTRA_BYTES
 }
 
-/// Refuses items whose extra bytes pass `MAX_EXTRA_BYTES`, before the codec allocates for them.
-fn check_extra_bytes(vlr: &LazVlr) -> Result<(), String> {
+/// Refuses, before the codec allocates for them, items that list one kind twice (LASzip lists each
+/// of a point format's parts once; the codec keeps models for every item, so a forged list of
+/// thousands of items would cost as much as as many extra bytes) or whose extra bytes pass
+/// `MAX_EXTRA_BYTES`.
+fn check_items(vlr: &LazVlr) -> Result<(), String> {
+    let items = vlr.items();
+    for (i, a) in items.iter().enumerate() {
+        if items[..i]
+            .iter()
+            .any(|b| std::mem::discriminant(&b.item_type()) == std::mem::discriminant(&a.item_type()))
+        {
+            return Err(format!("its LASzip VLR lists the item {:?} twice", a.item_type()));
+        }
+    }
     let extra: u64 = vlr
         .items()
         .iter()
@@ -116,7 +128,7 @@ pub extern "C" fn ecs_laz_vlr(
         let items = LazItemRecordBuilder::default_for_point_format_id(format, extra_bytes)
             .map_err(|e| e.to_string())?;
         let vlr = LazVlrBuilder::new(items).build();
-        check_extra_bytes(&vlr)?;
+        check_items(&vlr)?;
         let mut bytes = Vec::new();
         vlr.write_to(&mut bytes).map_err(|e| e.to_string())?;
         give(out, bytes);
@@ -156,7 +168,7 @@ pub extern "C" fn ecs_laz_compress(
                 vlr.items_size()
             ));
         }
-        check_extra_bytes(&vlr)?;
+        check_items(&vlr)?;
         let mut cursor = Cursor::new(prefix.to_vec());
         cursor.seek(SeekFrom::End(0)).map_err(|e| e.to_string())?;
         let mut compressor = LasZipCompressor::new(cursor, vlr).map_err(|e| e.to_string())?;
@@ -266,7 +278,7 @@ fn checked_decompressor<'a, R: Read + Seek + Send + Sync + 'a>(
             vlr.items_size()
         ));
     }
-    check_extra_bytes(&vlr)?;
+    check_items(&vlr)?;
     // The compressor (the payload's first u16): 1 point-wise (one stream, no chunk table), 2
     // point-wise chunked, 3 layered chunked.
     let compressor = if vlr_bytes.len() >= 2 { u16::from_le_bytes([vlr_bytes[0], vlr_bytes[1]]) } else { 0 };
@@ -522,7 +534,7 @@ pub extern "C" fn ecs_laz_writer_open(
         // SAFETY: the caller gives a NUL-terminated path and the length of its buffer.
         let (path, vlr) = unsafe { (path_of(path)?, slice(vlr, vlr_len)) };
         let vlr = LazVlr::from_buffer(vlr).map_err(|e| e.to_string())?;
-        check_extra_bytes(&vlr)?;
+        check_items(&vlr)?;
         let mut file = OpenOptions::new().read(true).write(true).open(&path).map_err(|e| format!("cannot open it ({e})"))?;
         file.seek(SeekFrom::End(0)).map_err(|e| e.to_string())?;
         let c = LasZipCompressor::new(BufWriter::with_capacity(1 << 20, file), vlr).map_err(|e| e.to_string())?;
