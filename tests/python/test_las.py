@@ -189,3 +189,32 @@ def test_malformed_las_is_refused_with_exit_3_and_nothing_written(tools, tmp_pat
     make_input(tmp_path / "in.laz", "1.2", 3)
     laz = (tmp_path / "in.laz").read_bytes()
     assert "compressed" in refused(tools, tmp_path, laz[: len(laz) * 2 // 3], "cut.laz")
+
+
+def test_laz_with_more_extra_bytes_than_the_codec_holds_is_refused(tools, tmp_path):
+    """laspy (with lazrs) writes records of 1,032 extra bytes (129 doubles), past the 1,024 that
+    pcl_ecs reads and writes as LAZ: the LAZ is refused as a bad file, its LAS twin is simplified,
+    and a LAZ output of those records is refused before any work."""
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.add_extra_dims([laspy.ExtraBytesParams(name=f"e{k}", type=np.float64) for k in range(129)])
+    header.scales = SCALE
+    header.offsets = OFFSET
+    las = laspy.LasData(header)
+    i = np.arange(N)
+    z = 1.0 - 2.0 * (i + 0.5) / N
+    s = np.sqrt(1.0 - z * z)
+    t = np.pi * (3.0 - np.sqrt(5.0)) * i
+    las.x = OFFSET[0] + 10.0 * s * np.cos(t)
+    las.y = OFFSET[1] + 10.0 * s * np.sin(t)
+    las.z = OFFSET[2] + 10.0 * z
+    las.write(tmp_path / "wide.laz")
+    las.write(tmp_path / "wide.las")
+    assert laspy.read(tmp_path / "wide.laz").header.point_format.num_extra_bytes == 1032
+    assert "1032 extra bytes" in refused(tools, tmp_path, (tmp_path / "wide.laz").read_bytes(), "bad.laz")
+    simplify(tools, tmp_path, tmp_path / "wide.las", tmp_path / "o.las")
+    assert laspy.read(tmp_path / "o.las").header.point_format.num_extra_bytes == 1032
+    out = tmp_path / "o.laz"
+    r = subprocess.run([str(tools / "pcd_simplify"), str(tmp_path / "wide.las"), str(out), "--quiet"],
+                       capture_output=True, text=True)
+    assert r.returncode == 4 and "1032 extra bytes" in r.stderr, r.stderr
+    assert not out.exists() and len(list(tmp_path.glob("o.laz*"))) == 0
