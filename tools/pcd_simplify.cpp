@@ -83,9 +83,9 @@ Output:
   --ascii             write ASCII PCD / PLY
   --compressed        write binary_compressed PCD
   --features FILE     also write the feature points to FILE (.pcd or .ply)
-  --labels            add a field 'ecs_label' to each output point: 1 feature, 2 representative
-  --radii             add a field 'ecs_radius' (float) to each output point: the radius of the ball
-                      it stands for, 0 for a feature point; pcd_reconstruct meshes with it as
+  --labels            add a field 'ecs_label' (PCD and PLY outputs): 1 feature, 2 representative
+  --radii             add a field 'ecs_radius' (float; PCD and PLY outputs): the radius of the ball
+                      each point stands for, 0 for a feature point; pcd_reconstruct meshes with it as
                       --mesh does (refusing triangles between balls far from overlapping)
   --mesh FILE         also triangulate the simplified cloud with Cocone and write the mesh to
                       FILE (.ply, .obj or .vtk); the Cocone flags below tune it
@@ -251,6 +251,10 @@ Options parseArgs(int argc, char** argv, bool& done)
     if (f == io::Format::Laz && !io::lazSupported())
       throw UsageError(*out + ": this build of pcd_simplify has no LAZ support (built with -DPCL_ECS_WITH_LAZ=OFF)");
   }
+  if ((o.labels || o.radii) && (io::formatFromPath(o.output) == io::Format::Las ||
+                                 io::formatFromPath(o.output) == io::Format::Laz))
+    throw UsageError(o.output + ": --labels and --radii add fields (ecs_label, ecs_radius) that LAS has no place "
+                     "for; write the output as .pcd or .ply");
   if (!o.mesh.empty())
   {
     try

@@ -382,6 +382,9 @@ TEST_F(Cli, ContradictoryFlagsAreUsageErrors)
   expectRefused(in + out + " --feature-spacing 1 --target-ratio 0.1", 2, none, "thins the feature points itself");
   expectRefused(in + out + " --feature-spacing -1", 2, none, "feature_spacing");
   expectRefused(in + out + " --feature-spacing 1 --stream", 4, none, "--feature-spacing is not supported");
+  // LAS has no place for our per-point fields: refused rather than dropped.
+  expectRefused(in + " " + path("out.las") + " --labels", 2, none, "no place");
+  expectRefused(in + " " + path("out.laz") + " --radii", 2, none, "no place");
 }
 
 TEST_F(Cli, MaxDeviationHoldsOnEverySharedScan)
