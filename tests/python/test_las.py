@@ -23,6 +23,17 @@ FORMATS = {"1.2": range(0, 4), "1.3": range(0, 6), "1.4": range(0, 11)}
 CASES = [(v, f) for v, fs in FORMATS.items() for f in fs]
 
 
+def place_on_sphere(las, cap=1.0):
+    """x y z of the N points: a 10 m Fibonacci sphere about OFFSET, cut flat at z = 10 cap."""
+    i = np.arange(N)
+    z = 1.0 - 2.0 * (i + 0.5) / N
+    s = np.sqrt(1.0 - z * z)
+    t = np.pi * (3.0 - np.sqrt(5.0)) * i
+    las.x = OFFSET[0] + 10.0 * s * np.cos(t)
+    las.y = OFFSET[1] + 10.0 * s * np.sin(t)
+    las.z = OFFSET[2] + 10.0 * np.minimum(z, cap)
+
+
 def make_input(path, version, fmt, extra=False):
     """A 10 m sphere with a flat cap (its rim is a sharp edge) and random values in every dimension."""
     rng = np.random.default_rng(fmt + 20 * len(version))
@@ -37,13 +48,7 @@ def make_input(path, version, fmt, extra=False):
     if version == "1.4":
         las.evlrs = laspy.vlrs.vlrlist.VLRList([laspy.VLR(user_id="pcl_ecs_test", record_id=7, description="an EVLR",
                                            record_data=bytes(range(256)) * 300)])
-    i = np.arange(N)
-    z = 1.0 - 2.0 * (i + 0.5) / N
-    s = np.sqrt(1.0 - z * z)
-    t = np.pi * (3.0 - np.sqrt(5.0)) * i
-    las.x = OFFSET[0] + 10.0 * s * np.cos(t)
-    las.y = OFFSET[1] + 10.0 * s * np.sin(t)
-    las.z = OFFSET[2] + 10.0 * np.minimum(z, 0.5)
+    place_on_sphere(las, cap=0.5)
     for d in las.point_format.dimensions:
         if d.name in ("X", "Y", "Z"):
             continue
@@ -200,13 +205,7 @@ def test_laz_with_more_extra_bytes_than_the_codec_holds_is_refused(tools, tmp_pa
     header.scales = SCALE
     header.offsets = OFFSET
     las = laspy.LasData(header)
-    i = np.arange(N)
-    z = 1.0 - 2.0 * (i + 0.5) / N
-    s = np.sqrt(1.0 - z * z)
-    t = np.pi * (3.0 - np.sqrt(5.0)) * i
-    las.x = OFFSET[0] + 10.0 * s * np.cos(t)
-    las.y = OFFSET[1] + 10.0 * s * np.sin(t)
-    las.z = OFFSET[2] + 10.0 * z
+    place_on_sphere(las)
     las.write(tmp_path / "wide.laz")
     las.write(tmp_path / "wide.las")
     assert laspy.read(tmp_path / "wide.laz").header.point_format.num_extra_bytes == 1032
