@@ -82,11 +82,11 @@ Scans larger than memory (PCD, LAS or LAZ in and out, PCD binary; docs/STREAMING
 Output:
   --ascii             write ASCII PCD / PLY
   --compressed        write binary_compressed PCD
-  --features FILE     also write the feature points to FILE (.pcd or .ply)
+  --features FILE     also write the feature points to FILE (.pcd, .ply, .las or .laz, as OUTPUT)
   --labels            add a field 'ecs_label' (PCD and PLY outputs): 1 feature, 2 representative
   --radii             add a field 'ecs_radius' (float; PCD and PLY outputs): the radius of the ball
-                      each point stands for, 0 for a feature point; pcd_reconstruct meshes with it as
-                      --mesh does (refusing triangles between balls far from overlapping)
+                      each point stands for, 0 for a feature point; pcd_reconstruct meshes with it
+                      as --mesh does (refusing triangles between balls far from overlapping)
   --mesh FILE         also triangulate the simplified cloud with Cocone and write the mesh to
                       FILE (.ply, .obj or .vtk); the Cocone flags below tune it
   --stats FILE.json   write what was done: parameters, counts, time per stage, largest error,
