@@ -196,6 +196,10 @@ TEST_F(Cli, HelpAndVersion)
   for (const char* s : {"--terr", "--alpha", "--k", "--target-size", "--target-ratio", "--seed",
                         "--threads", "--features", "--labels", "--stats", "Exit codes", "Examples"})
     EXPECT_NE(r.out.find(s), std::string::npos) << s;
+  // Within 100 columns, as a terminal shows it.
+  std::istringstream lines(r.out);
+  for (std::string line; std::getline(lines, line);)
+    EXPECT_LE(line.size(), 100u) << line;
   r = run("--version");
   EXPECT_EQ(r.code, 0);
   EXPECT_NE(r.out.find("pcl_ecs"), std::string::npos);

@@ -46,7 +46,8 @@ the frames in flight, flush the sink, print a summary and exit 0.
   --quiet                  no stats lines, only errors and the summary
 
 Frames on TCP and pipes: an 8-byte little-endian length, then that many bytes holding a complete
-PCD file (any DATA encoding); output frames use the same framing with binary PCD (docs/NODE_PROTOCOL.md).
+PCD file (any DATA encoding); output frames use the same framing with binary PCD
+(docs/NODE_PROTOCOL.md).
 A directory source reads *.pcd, *.las and *.laz files in name order once each, when their size has
 been stable for one poll (writers should write to a temporary name and rename); a directory sink
 writes each output to a temporary name and renames it, so a consumer never sees half a frame. A
