@@ -108,6 +108,23 @@ ReadBothWays readBothWays(const std::string& bytes, const std::string& path, std
   }
   return r;
 }
+
+/// Where the item list of the LASzip VLR of `laz` starts (6 bytes an item: type, size, version,
+/// u16 each; their count, u16, just before), or npos when it has none.
+std::size_t laszipItemsAt(const std::string& laz)
+{
+  const std::size_t user_id = laz.find("laszip encoded");
+  // The VLR header (54 bytes, the user id at its byte 2), then the payload's 34 bytes.
+  return user_id == std::string::npos ? user_id : user_id - 2 + 54 + 34;
+}
+
+/// The number of items in that list.
+std::uint16_t laszipItemCount(const std::string& laz, std::size_t items)
+{
+  std::uint16_t n = 0;
+  std::memcpy(&n, &laz[items - 2], 2);
+  return n;
+}
 }  // namespace
 
 TEST(LasIo, ACloudOfAnyOriginGetsAScaleThatHoldsItsCoordinates)
@@ -363,11 +380,9 @@ TEST(LasIo, RecordsWithMoreExtraBytesThanLazHoldsAreRefusedBeforeTheCodecAllocat
     std::string more = laz;
     const std::uint16_t longer = info.record_length + 1;
     std::memcpy(&more[105], &longer, 2);
-    const std::size_t vlr = more.find("laszip encoded");
-    ASSERT_NE(vlr, std::string::npos);
-    const std::size_t items = vlr - 2 + 54 + 34;  // the VLR header, then the payload's 34 bytes
-    std::uint16_t n_items = 0;
-    std::memcpy(&n_items, &more[items - 2], 2);
+    const std::size_t items = laszipItemsAt(more);
+    ASSERT_NE(items, std::string::npos);
+    const std::uint16_t n_items = laszipItemCount(more, items);
     int patched = 0;
     for (std::size_t i = 0; i < n_items; ++i)
     {
@@ -429,12 +444,9 @@ TEST(LasIo, ALazWhoseVlrListsAnItemTwiceIsRefused)
   info.point_format = 1;
   info.record_length = static_cast<std::uint16_t>(io::lasStandardRecordLength(1) + 8);
   std::string laz = io::lasBytes(read, &info, true);
-  const std::size_t vlr = laz.find("laszip encoded");
-  ASSERT_NE(vlr, std::string::npos);
-  const std::size_t items = vlr - 2 + 54 + 34;
-  std::uint16_t n_items = 0;
-  std::memcpy(&n_items, &laz[items - 2], 2);
-  ASSERT_EQ(n_items, 3u);  // Point10, GpsTime, Byte(8)
+  const std::size_t items = laszipItemsAt(laz);
+  ASSERT_NE(items, std::string::npos);
+  ASSERT_EQ(laszipItemCount(laz, items), 3u);  // Point10, GpsTime, Byte(8)
   std::uint16_t type = 0, size = 0;
   std::memcpy(&type, &laz[items + 12], 2);
   std::memcpy(&size, &laz[items + 14], 2);

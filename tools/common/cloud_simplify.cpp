@@ -78,27 +78,22 @@ std::size_t distinctFinitePoints(const pcl::PCLPointCloud2& cloud)
 
 namespace
 {
-/// Appends to every record of `out` a field `name` of one `datatype` value (`size` bytes), whose
+/// Appends to every record of `out` a field `name` of one `datatype` value (io::appendField), whose
 /// bytes for point i `write(i, dst)` fills.
 template <typename Write>
-void appendPerPoint(pcl::PCLPointCloud2& out, const char* name, std::uint8_t datatype, std::uint32_t size, Write write)
+void appendPerPoint(pcl::PCLPointCloud2& out, const char* name, std::uint8_t datatype, Write write)
 {
   const std::uint32_t old_step = out.point_step;
   const std::size_t m = static_cast<std::size_t>(out.width) * out.height;
-  pcl::PCLPointField f;
-  f.name = name;
-  f.offset = old_step;
-  f.datatype = datatype;
-  f.count = 1;
-  std::vector<std::uint8_t> data(m * (old_step + size));
+  io::appendField(out, name, datatype);
+  const std::uint32_t step = out.point_step;
+  std::vector<std::uint8_t> data(m * step);
   for (std::size_t i = 0; i < m; ++i)
   {
-    std::memcpy(data.data() + i * (old_step + size), out.data.data() + i * old_step, old_step);
-    write(i, data.data() + i * (old_step + size) + old_step);
+    std::memcpy(data.data() + i * step, out.data.data() + i * old_step, old_step);
+    write(i, data.data() + i * step + old_step);
   }
-  out.fields.push_back(f);
-  out.point_step = old_step + size;
-  out.row_step = out.point_step * out.width;
+  out.row_step = step * out.width;
   out.data = std::move(data);
 }
 }  // namespace
@@ -182,12 +177,12 @@ CloudRun simplifyCloud(const pcl::PCLPointCloud2& input, const Parameters& given
     f.row_step = f.point_step * f.width;
   }
   if (options.labels)
-    appendPerPoint(out, "ecs_label", pcl::PCLPointField::UINT8, 1,
+    appendPerPoint(out, "ecs_label", pcl::PCLPointField::UINT8,
                    [&](std::size_t i, std::uint8_t* dst) { *dst = static_cast<std::uint8_t>(r.labels[i]); });
   if (options.radii)
   {
     const std::vector<double> radius = pointRadii(r);
-    appendPerPoint(out, "ecs_radius", pcl::PCLPointField::FLOAT32, 4, [&](std::size_t i, std::uint8_t* dst) {
+    appendPerPoint(out, "ecs_radius", pcl::PCLPointField::FLOAT32, [&](std::size_t i, std::uint8_t* dst) {
       const auto v = static_cast<float>(radius[i]);
       std::memcpy(dst, &v, sizeof v);
     });
