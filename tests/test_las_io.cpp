@@ -464,3 +464,171 @@ TEST(LasIo, ALazWhoseVlrListsAnItemTwiceIsRefused)
   EXPECT_NE(r.chunked_error.find("twice"), std::string::npos) << r.chunked_error;
   std::filesystem::remove(path);
 }
+
+namespace
+{
+/// The Extra Bytes VLR of `info` (LASF_Spec 4), or null.
+const io::LasVlr* extraBytesVlr(const io::LasInfo& info)
+{
+  for (const io::LasVlr& v : info.vlrs)
+    if (v.user_id == "LASF_Spec" && v.record_id == 4)
+      return &v;
+  return nullptr;
+}
+
+/// Expects `f` to throw a FormatError whose message holds `says`.
+template <typename F>
+void expectFormatError(F f, const std::string& says)
+{
+  try
+  {
+    f();
+    ADD_FAILURE() << "no error; expected one saying \"" << says << "\"";
+  }
+  catch (const io::FormatError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+  }
+}
+}  // namespace
+
+TEST(LasIo, CloudFieldsBecomeExtraDimensionsThatTheExtraBytesVlrDescribes)
+{
+  // A cloud with a uint8 and a float field written as LAS (and LAZ): 5 bytes after the format's
+  // fields, described in the VLR by the LAS specification's layout (type at byte 2, name at 4).
+  const std::size_t n = 60;
+  pcl::PCLPointCloud2 c = utmCloud(n);
+  io::appendField(c, "ecs_label", Field::UINT8);
+  io::appendField(c, "ecs_radius", Field::FLOAT32);
+  std::vector<std::uint8_t> data(n * c.point_step, 0);
+  const std::size_t old_step = c.point_step - 5;
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    std::memcpy(data.data() + i * c.point_step, utmCloud(n).data.data() + i * old_step, old_step);
+    data[i * c.point_step + old_step] = static_cast<std::uint8_t>(1 + i % 2);
+    const float r = 0.25f * static_cast<float>(i);
+    std::memcpy(data.data() + i * c.point_step + old_step + 1, &r, 4);
+  }
+  c.data = data;
+  c.row_step = c.point_step * c.width;
+  const std::vector<io::ExtraDimension> dims = {{"ecs_label", "labels"}, {"ecs_radius", "radii"}};
+  io::LasInfo info = io::lasInfoFor(c, nullptr);
+  ASSERT_EQ(info.point_format, 2);  // colour
+  io::addLasExtraDimensions(info, c.fields, dims);
+  EXPECT_EQ(info.record_length, io::lasStandardRecordLength(2) + 5);
+  const io::LasVlr* vlr = extraBytesVlr(info);
+  ASSERT_NE(vlr, nullptr);
+  ASSERT_EQ(vlr->data.size(), 2u * 192u);
+  EXPECT_EQ(vlr->data[2], 1u);  // unsigned char
+  EXPECT_STREQ(reinterpret_cast<const char*>(&vlr->data[4]), "ecs_label");
+  EXPECT_EQ(vlr->data[192 + 2], 9u);  // float
+  EXPECT_STREQ(reinterpret_cast<const char*>(&vlr->data[192 + 4]), "ecs_radius");
+  EXPECT_STREQ(reinterpret_cast<const char*>(&vlr->data[192 + 160]), "radii");
+
+  for (const bool laz : {false, true})
+  {
+    if (laz && !io::lazSupported())
+      continue;
+    pcl::PCLPointCloud2 back;
+    io::LasInfo back_info;
+    io::parseLas(io::lasBytes(c, &info, laz), back, &back_info);
+    ASSERT_EQ(back.width, n);
+    EXPECT_EQ(back_info.record_length, info.record_length);
+    ASSERT_NE(extraBytesVlr(back_info), nullptr);
+    EXPECT_EQ(extraBytesVlr(back_info)->data, vlr->data);
+    const int fe = io::fieldIndex(back.fields, "extra_bytes");
+    ASSERT_GE(fe, 0);
+    ASSERT_EQ(back.fields[static_cast<std::size_t>(fe)].count, 5u);
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      const std::uint8_t* e = back.data.data() + i * back.point_step + back.fields[static_cast<std::size_t>(fe)].offset;
+      float r = 0.0f;
+      std::memcpy(&r, e + 1, 4);
+      EXPECT_EQ(e[0], 1 + i % 2) << "point " << i << (laz ? " (LAZ)" : "");
+      EXPECT_EQ(r, 0.25f * static_cast<float>(i)) << "point " << i << (laz ? " (LAZ)" : "");
+    }
+
+    // Written again with the same dimensions (a file of ours simplified again): the records hold
+    // them already, their bytes are written over, and the file is the one written before.
+    io::LasInfo again = back_info;
+    io::addLasExtraDimensions(again, c.fields, dims);
+    EXPECT_EQ(again.record_length, info.record_length);
+    EXPECT_EQ(extraBytesVlr(again)->data, vlr->data);
+    EXPECT_EQ(io::lasBytes(c, &again, laz), io::lasBytes(c, &info, laz));
+  }
+}
+
+TEST(LasIo, ExtraBytesNoVlrDescribesAreDescribedAsUndocumentedFirst)
+{
+  // Records of format 0 with 3 extra bytes and no Extra Bytes VLR: a label goes after them, the VLR
+  // says "3 undocumented bytes" (type 0, options 3), then the label.
+  const std::size_t n = 10;
+  pcl::PCLPointCloud2 c = cloudOf(n, {{"x", Field::FLOAT64}, {"y", Field::FLOAT64}, {"z", Field::FLOAT64}});
+  io::appendField(c, "extra_bytes", Field::UINT8, 3);
+  io::appendField(c, "ecs_label", Field::UINT8);
+  c.data.assign(n * c.point_step, 0);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    std::uint8_t* p = c.data.data() + i * c.point_step;
+    const double xyz[3] = {static_cast<double>(i), 2.0 * static_cast<double>(i), 1.0};
+    std::memcpy(p, xyz, 24);
+    p[24] = 7;
+    p[25] = 8;
+    p[26] = static_cast<std::uint8_t>(i);
+    p[27] = 2;
+  }
+  io::LasInfo info = io::lasInfoFor(c, nullptr);
+  info.record_length = static_cast<std::uint16_t>(io::lasStandardRecordLength(0) + 3);
+  io::addLasExtraDimensions(info, c.fields, {{"ecs_label", ""}});
+  EXPECT_EQ(info.record_length, io::lasStandardRecordLength(0) + 4);
+  const io::LasVlr* vlr = extraBytesVlr(info);
+  ASSERT_NE(vlr, nullptr);
+  ASSERT_EQ(vlr->data.size(), 2u * 192u);
+  EXPECT_EQ(vlr->data[2], 0u);
+  EXPECT_EQ(vlr->data[3], 3u);
+  EXPECT_EQ(vlr->data[192 + 2], 1u);
+  pcl::PCLPointCloud2 back;
+  io::parseLas(io::lasBytes(c, &info, false), back);
+  const int fe = io::fieldIndex(back.fields, "extra_bytes");
+  ASSERT_GE(fe, 0);
+  ASSERT_EQ(back.fields[static_cast<std::size_t>(fe)].count, 4u);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const std::uint8_t* e = back.data.data() + i * back.point_step + back.fields[static_cast<std::size_t>(fe)].offset;
+    EXPECT_EQ(std::vector<int>(e, e + 4), (std::vector<int>{7, 8, static_cast<int>(i), 2})) << "point " << i;
+  }
+}
+
+TEST(LasIo, ExtraDimensionsThatCannotBeAddedAreRefusedWithWhy)
+{
+  pcl::PCLPointCloud2 c = cloudOf(4, {{"x", Field::FLOAT64}, {"y", Field::FLOAT64}, {"z", Field::FLOAT64},
+                                      {"ecs_label", Field::UINT8}, {"ecs_radius", Field::FLOAT32}});
+  io::appendField(c, "normal", Field::FLOAT32, 3);
+  const io::LasInfo plain = io::lasInfoFor(c, nullptr);
+  expectFormatError([&] { io::LasInfo i = plain; io::addLasExtraDimensions(i, c.fields, {{"missing", ""}}); },
+                    "no field \"missing\"");
+  expectFormatError([&] { io::LasInfo i = plain; io::addLasExtraDimensions(i, c.fields, {{"normal", ""}}); },
+                    "not one number");
+  pcl::PCLPointCloud2 named = cloudOf(1, {{"intensity", Field::UINT16}});
+  expectFormatError([&] { io::LasInfo i = plain; io::addLasExtraDimensions(i, named.fields, {{"intensity", ""}}); },
+                    "name of a LAS dimension");
+  // A dimension of that name with another type.
+  io::LasInfo labelled = plain;
+  io::addLasExtraDimensions(labelled, c.fields, {{"ecs_label", ""}});
+  pcl::PCLPointCloud2 other = cloudOf(1, {{"ecs_label", Field::FLOAT32}});
+  expectFormatError([&] { io::LasInfo i = labelled; io::addLasExtraDimensions(i, other.fields, {{"ecs_label", ""}}); },
+                    "another type");
+  // A VLR that is not whole descriptors, or describes more bytes than the records hold.
+  io::LasInfo cut = labelled;
+  for (io::LasVlr& v : cut.vlrs)
+    v.data.resize(100);
+  expectFormatError([&] { io::addLasExtraDimensions(cut, c.fields, {{"ecs_radius", ""}}); }, "192-byte");
+  io::LasInfo short_records = labelled;
+  short_records.record_length = static_cast<std::uint16_t>(short_records.record_length - 1);
+  expectFormatError([&] { io::addLasExtraDimensions(short_records, c.fields, {{"ecs_radius", ""}}); },
+                    "describes 1 bytes but its records hold 0");
+  // A record past 65,535 bytes.
+  io::LasInfo wide = plain;
+  wide.record_length = 65533;
+  expectFormatError([&] { io::addLasExtraDimensions(wide, c.fields, {{"ecs_radius", ""}}); }, "65,535");
+}

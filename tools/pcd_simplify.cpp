@@ -83,10 +83,12 @@ Output:
   --ascii             write ASCII PCD / PLY
   --compressed        write binary_compressed PCD
   --features FILE     also write the feature points to FILE (.pcd, .ply, .las or .laz, as OUTPUT)
-  --labels            add a field 'ecs_label' (PCD and PLY outputs): 1 feature, 2 representative
-  --radii             add a field 'ecs_radius' (float; PCD and PLY outputs): the radius of the ball
-                      each point stands for, 0 for a feature point; pcd_reconstruct meshes with it
-                      as --mesh does (refusing triangles between balls far from overlapping)
+  --labels            add a field 'ecs_label' (uint8): 1 feature, 2 representative; in LAS and LAZ
+                      an extra dimension (Extra Bytes VLR: laspy, PDAL, CloudCompare read it)
+  --radii             add a field 'ecs_radius' (float; in LAS and LAZ an extra dimension): the
+                      radius of the ball each point stands for, 0 for a feature point;
+                      pcd_reconstruct meshes a PCD or PLY with it as --mesh does (refusing
+                      triangles between balls far from overlapping)
   --mesh FILE         also triangulate the simplified cloud with Cocone and write the mesh to
                       FILE (.ply, .obj or .vtk); the Cocone flags below tune it
   --stats FILE.json   write what was done: parameters, counts, time per stage, largest error,
@@ -251,10 +253,6 @@ Options parseArgs(int argc, char** argv, bool& done)
     if (f == io::Format::Laz && !io::lazSupported())
       throw UsageError(*out + ": this build of pcd_simplify has no LAZ support (built with -DPCL_ECS_WITH_LAZ=OFF)");
   }
-  if ((o.labels || o.radii) && (io::formatFromPath(o.output) == io::Format::Las ||
-                                 io::formatFromPath(o.output) == io::Format::Laz))
-    throw UsageError(o.output + ": --labels and --radii add fields (ecs_label, ecs_radius) that LAS has no place "
-                     "for; write the output as .pcd or .ply");
   if (!o.mesh.empty())
   {
     try
@@ -345,6 +343,29 @@ std::string deviationNote(const Summary& s)
     note += buf;
   }
   return note;
+}
+
+/// The extra dimensions --labels and --radii add to a LAS or LAZ output, and the fields they come
+/// from (simplifyCloud appends them: ecs_label uint8, ecs_radius float).
+std::vector<io::ExtraDimension> lasExtraDimensions(const Options& o, std::vector<pcl::PCLPointField>* fields = nullptr)
+{
+  std::vector<io::ExtraDimension> dims;
+  auto add = [&](const char* name, std::uint8_t datatype, const char* description) {
+    dims.push_back({name, description});
+    if (fields)
+    {
+      pcl::PCLPointField f;
+      f.name = name;
+      f.datatype = datatype;
+      f.count = 1;
+      fields->push_back(f);
+    }
+  };
+  if (o.labels)
+    add("ecs_label", pcl::PCLPointField::UINT8, "pcl_ecs: 1 feature, 2 ball");
+  if (o.radii)
+    add("ecs_radius", pcl::PCLPointField::FLOAT32, "pcl_ecs: radius of its ball");
+  return dims;
 }
 
 int runStream(const Options& o)
@@ -506,11 +527,29 @@ int runTool(int argc, char** argv)
   {
     throw ToolError(kExitInput, e.what());
   }
-  // A LAZ output of these records must be possible before the work starts.
+  // A LAS or LAZ output of these records must be possible before the work starts: with the
+  // extra dimensions of --labels and --radii, and as LAZ.
+  const bool output_is_las = io::formatFromPath(o.output) == io::Format::Las || io::formatFromPath(o.output) == io::Format::Laz;
+  const std::vector<io::ExtraDimension> extra_dims = output_is_las ? lasExtraDimensions(o) : std::vector<io::ExtraDimension>();
   for (const std::string* out : {&o.output, &o.features})
-    if (input_is_las && !out->empty() && io::formatFromPath(*out) == io::Format::Laz)
-      if (const std::string why = io::lazCannotWrite(las); !why.empty())
-        throw ToolError(kExitOutput, *out + ": " + o.input + ": " + why);
+    if (input_is_las && !out->empty())
+    {
+      io::LasInfo written = las;
+      if (out == &o.output && !extra_dims.empty())
+        try
+        {
+          std::vector<pcl::PCLPointField> fields;
+          lasExtraDimensions(o, &fields);
+          io::addLasExtraDimensions(written, fields, extra_dims);
+        }
+        catch (const io::FormatError& e)
+        {
+          throw ToolError(kExitOutput, *out + ": " + o.input + ": --labels / --radii: " + e.what());
+        }
+      if (io::formatFromPath(*out) == io::Format::Laz)
+        if (const std::string why = io::lazCannotWrite(written); !why.empty())
+          throw ToolError(kExitOutput, *out + ": " + o.input + ": " + why);
+    }
   if (o.params.use_input_normals && (io::fieldIndex(input.fields, "normal_x") < 0 ||
                                      io::fieldIndex(input.fields, "normal_y") < 0 ||
                                      io::fieldIndex(input.fields, "normal_z") < 0))
@@ -545,8 +584,15 @@ int runTool(int argc, char** argv)
   try
   {
     outputs.push_back(std::make_unique<io::AtomicOutput>(o.output));
-    io::writeCloud(outputs.back()->tempPath(), io::formatFromPath(o.output), r.output, o.encoding,
-                   input_is_las ? &las : nullptr);
+    if (extra_dims.empty())
+      io::writeCloud(outputs.back()->tempPath(), io::formatFromPath(o.output), r.output, o.encoding,
+                     input_is_las ? &las : nullptr);
+    else
+    {
+      io::LasInfo with_dims = io::lasInfoFor(r.output, input_is_las ? &las : nullptr);
+      io::addLasExtraDimensions(with_dims, r.output.fields, extra_dims);
+      io::writeCloud(outputs.back()->tempPath(), io::formatFromPath(o.output), r.output, o.encoding, &with_dims);
+    }
     if (!o.features.empty())
     {
       outputs.push_back(std::make_unique<io::AtomicOutput>(o.features));

@@ -14,6 +14,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -304,6 +305,93 @@ TEST_F(Cli, OutputProblemsAreRefusedBeforeAnyWork)
   EXPECT_EQ(slurp(copy), before);
 }
 
+namespace
+{
+/// Per point of `c`: its ecs_label and ecs_radius fields (PCD, PLY), or the 5 extra bytes after
+/// the records' first `skip` (LAS, LAZ: the extra dimensions --labels --radii add), as bytes.
+std::vector<std::array<std::uint8_t, 5>> labelsAndRadii(const pcl::PCLPointCloud2& c, std::size_t skip = 0)
+{
+  std::vector<std::array<std::uint8_t, 5>> v(static_cast<std::size_t>(c.width) * c.height);
+  const int fl = pcl_ecs::io::fieldIndex(c.fields, "ecs_label"), fr = pcl_ecs::io::fieldIndex(c.fields, "ecs_radius");
+  const int fe = pcl_ecs::io::fieldIndex(c.fields, "extra_bytes");
+  for (std::size_t i = 0; i < v.size(); ++i)
+  {
+    const std::uint8_t* rec = c.data.data() + i * c.point_step;
+    if (fl >= 0 && fr >= 0)
+    {
+      v[i][0] = rec[c.fields[static_cast<std::size_t>(fl)].offset];
+      std::memcpy(&v[i][1], rec + c.fields[static_cast<std::size_t>(fr)].offset, 4);
+    }
+    else if (fe >= 0 && c.fields[static_cast<std::size_t>(fe)].count == skip + 5)
+      std::memcpy(v[i].data(), rec + c.fields[static_cast<std::size_t>(fe)].offset + skip, 5);
+    else
+      ADD_FAILURE() << "neither the fields nor 5 extra bytes after " << skip;
+  }
+  return v;
+}
+}  // namespace
+
+// --labels and --radii with a LAS or LAZ output: extra dimensions after the records' own extra
+// bytes, holding what the PCD output holds in its fields; a LAS output of ours simplified again
+// gets its dimensions written over (the records do not grow). An input whose Extra Bytes VLR cannot
+// be extended is refused before any work (exit 4); without the flags it passes through.
+TEST_F(Cli, LabelsAndRadiiInLasAndLazAreExtraDimensions)
+{
+  namespace io = pcl_ecs::io;
+  const std::string in = kShared + "/fandisk_scan.pcd ";
+  const std::string flags = " --target-ratio 0.1 --labels --radii --quiet";
+  std::vector<std::string> outs = {"out.pcd", "out.las"};
+  if (io::lazSupported())
+    outs.push_back("out.laz");
+  for (const std::string& out : outs)
+  {
+    const RunResult r = run(in + path(out) + flags);
+    ASSERT_EQ(r.code, 0) << out << ": " << r.err;
+  }
+  const auto want = labelsAndRadii(load(path("out.pcd")));
+  std::size_t features = 0;
+  for (const auto& v : want)
+    features += v[0] == 1 ? 1 : 0;
+  EXPECT_GT(features, 0u);
+  EXPECT_LT(features, want.size());
+  for (const std::string& out : outs)
+  {
+    if (out == "out.pcd")
+      continue;
+    pcl::PCLPointCloud2 c;
+    io::LasInfo info;
+    io::readCloud(path(out), c, &info);
+    EXPECT_EQ(info.record_length, io::lasStandardRecordLength(info.point_format) + 5) << out;
+    EXPECT_EQ(labelsAndRadii(c), want) << out;
+  }
+
+  // Simplified again: to LAS with the flags, and to PCD with them (the reference: the LAS input's
+  // 5 extra bytes as a field, the new labels and radii as fields).
+  const std::string again = path("out.las") + " ";
+  ASSERT_EQ(run(again + path("again.las") + flags).code, 0);
+  ASSERT_EQ(run(again + path("again.pcd") + flags).code, 0);
+  pcl::PCLPointCloud2 las_again;
+  io::LasInfo info_again;
+  io::readCloud(path("again.las"), las_again, &info_again);
+  EXPECT_EQ(info_again.record_length, io::lasStandardRecordLength(info_again.point_format) + 5);
+  const auto want_again = labelsAndRadii(load(path("again.pcd")));
+  EXPECT_EQ(labelsAndRadii(las_again), want_again);
+  EXPECT_LT(want_again.size(), want.size());
+
+  // An Extra Bytes VLR that is not whole descriptors: refused before any work with the flags.
+  pcl::PCLPointCloud2 read;
+  io::LasInfo info;
+  io::readCloud(path("out.las"), read, &info);
+  for (io::LasVlr& v : info.vlrs)
+    if (v.user_id == "LASF_Spec" && v.record_id == 4)
+      v.data.resize(100);
+  write("bad_vlr.las", io::lasBytes(read, &info, false));
+  const std::set<std::string> inputs = {"out.pcd", "out.las", "out.laz", "again.las", "again.pcd", "bad_vlr.las"};
+  expectRefused(path("bad_vlr.las") + " " + path("o.las") + " --labels", 4, inputs, "192-byte");
+  const RunResult plain = run(path("bad_vlr.las") + " " + path("o.las") + " --quiet");
+  EXPECT_EQ(plain.code, 0) << plain.err;
+}
+
 // LAS records with more extra bytes than LAZ holds (io::lazMaxExtraBytes()): a LAZ output (or
 // features file) is refused before the work, in memory and streamed, with nothing written; LAS
 // takes them.
@@ -386,9 +474,6 @@ TEST_F(Cli, ContradictoryFlagsAreUsageErrors)
   expectRefused(in + out + " --feature-spacing 1 --target-ratio 0.1", 2, none, "thins the feature points itself");
   expectRefused(in + out + " --feature-spacing -1", 2, none, "feature_spacing");
   expectRefused(in + out + " --feature-spacing 1 --stream", 4, none, "--feature-spacing is not supported");
-  // LAS has no place for our per-point fields: refused rather than dropped.
-  expectRefused(in + " " + path("out.las") + " --labels", 2, none, "no place");
-  expectRefused(in + " " + path("out.laz") + " --radii", 2, none, "no place");
 }
 
 TEST_F(Cli, MaxDeviationHoldsOnEverySharedScan)

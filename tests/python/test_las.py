@@ -217,3 +217,53 @@ def test_laz_with_more_extra_bytes_than_the_codec_holds_is_refused(tools, tmp_pa
                        capture_output=True, text=True)
     assert r.returncode == 4 and "1032 extra bytes" in r.stderr, r.stderr
     assert not out.exists() and len(list(tmp_path.glob("o.laz*"))) == 0
+
+
+@pytest.mark.parametrize("version,fmt,ext", [("1.2", 3, "las"), ("1.2", 3, "laz"), ("1.4", 6, "las"), ("1.4", 6, "laz")])
+def test_labels_and_radii_are_extra_dimensions_laspy_reads(tools, tmp_path, version, fmt, ext):
+    """--labels --radii with a LAS / LAZ output: laspy finds ecs_label (uint8) and ecs_radius
+    (float32) after the input's own dimensions (a float32 extra dimension in LAS 1.4), every one of
+    which is still its source point's; the labels count the feature points the stats count, a
+    feature point stands for no ball, and the balls' radii are those the stats report."""
+    inp = make_input(tmp_path / f"in.{ext}", version, fmt, extra=version == "1.4")
+    out = tmp_path / f"out.{ext}"
+    stats = simplify(tools, tmp_path, tmp_path / f"in.{ext}", out, "--labels", "--radii")
+    got = laspy.read(out)
+    assert list(got.point_format.dimension_names) == list(inp.point_format.dimension_names) + ["ecs_label", "ecs_radius"]
+    assert got["ecs_label"].dtype == np.uint8 and got["ecs_radius"].dtype == np.float32
+    source = np.full(65536, -1, np.int64)
+    source[np.asarray(inp.intensity)] = np.arange(N)
+    src = source[np.asarray(got.intensity)]
+    assert (src >= 0).all()
+    for d in dims(inp):
+        assert np.asarray(got[d]).tobytes() == np.asarray(inp[d])[src].tobytes(), d
+    label = np.asarray(got["ecs_label"])
+    radius = np.asarray(got["ecs_radius"])
+    assert set(np.unique(label)) == {1, 2}
+    assert (label == 1).sum() == stats["counts"]["feature_points"]
+    assert (radius[label == 1] == 0).all()
+    balls = radius[label == 2]
+    assert (balls >= 0).all() and (balls > 0).mean() > 0.5
+    assert (label == 2).sum() == stats["counts"]["balls"]
+
+
+def test_labels_and_radii_past_what_laz_holds_are_refused_before_any_work(tools, tmp_path):
+    """Records of 1,020 extra bytes: --radii makes them 1,024, which LAZ holds; --labels --radii
+    would make 1,025: refused with exit 4 before any work, nothing written."""
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.add_extra_dims([laspy.ExtraBytesParams(name=f"e{k}", type=np.float64) for k in range(127)] +
+                          [laspy.ExtraBytesParams(name="tag", type=np.uint32)])
+    header.scales = SCALE
+    header.offsets = OFFSET
+    las = laspy.LasData(header)
+    place_on_sphere(las)
+    las.write(tmp_path / "in.las")
+    simplify(tools, tmp_path, tmp_path / "in.las", tmp_path / "r.laz", "--radii")
+    got = laspy.read(tmp_path / "r.laz")
+    assert got.header.point_format.num_extra_bytes == 1024
+    assert list(got.point_format.extra_dimension_names)[-2:] == ["tag", "ecs_radius"]
+    out = tmp_path / "o.laz"
+    r = subprocess.run([str(tools / "pcd_simplify"), str(tmp_path / "in.las"), str(out), "--labels", "--radii"],
+                       capture_output=True, text=True)
+    assert r.returncode == 4 and "1025 extra bytes" in r.stderr, r.stderr
+    assert len(list(tmp_path.glob("o.laz*"))) == 0

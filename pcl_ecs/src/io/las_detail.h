@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <pcl/PCLPointField.h>
@@ -94,6 +95,22 @@ void decodeRecords(const Layout& layout, const std::uint8_t* raw, std::size_t n,
 
 /// Records in any layout with a LAS dimension's names → raw LAS records of `info`'s format, and the
 /// bounds and counts by return that the header states.
+/// One dimension the Extra Bytes VLR (user "LASF_Spec", record 4) describes: its name, where it
+/// lies in a record's extra bytes, its size, and its PCL datatype when it is one plain number
+/// (0 for undocumented bytes, a 2- or 3-vector, or a value with a scale or an offset).
+struct ExtraDim
+{
+  std::string name;
+  std::size_t offset = 0, size = 0;
+  std::uint8_t las_type = 0;
+  std::uint8_t datatype = 0;
+};
+
+/// The dimensions `info`'s Extra Bytes VLR describes, in record order (none without one). False,
+/// saying why, when the VLR cannot be read: a size that is not a whole number of 192-byte
+/// descriptors, or a data type LAS does not define.
+bool extraDims(const LasInfo& info, std::vector<ExtraDim>& dims, std::string& why);
+
 class Encoder
 {
 public:
@@ -126,6 +143,8 @@ private:
   const pcl::PCLPointField* xyz_[3] = {nullptr, nullptr, nullptr};
   const pcl::PCLPointField* packed_rgb_ = nullptr;
   const pcl::PCLPointField* extra_field_ = nullptr;
+  /// Extra dimensions the header describes and the cloud has a field of that name for.
+  std::vector<std::pair<ExtraDim, const pcl::PCLPointField*>> named_;
   std::uint64_t count_ = 0;
 };
 

@@ -309,6 +309,92 @@ std::string lazCannotWrite(const LasInfo& info)
 namespace las
 {
 
+namespace
+{
+constexpr const char* kSpecUser = "LASF_Spec";
+constexpr std::uint16_t kExtraBytesRecord = 4;
+constexpr std::size_t kExtraBytesDescriptor = 192;
+
+/// LAS extra-byte data types 1-10 (u8 i8 u16 i16 u32 i32 u64 i64 f32 f64) as PCL datatypes.
+std::uint8_t pclTypeOfLas(int las_type)
+{
+  static const std::uint8_t types[] = {Field::UINT8,  Field::INT8,   Field::UINT16, Field::INT16,   Field::UINT32,
+                                       Field::INT32,  Field::UINT64, Field::INT64,  Field::FLOAT32, Field::FLOAT64};
+  return las_type >= 1 && las_type <= 10 ? types[las_type - 1] : 0;
+}
+
+/// The LAS extra-byte data type of a PCL datatype (0 when there is none).
+std::uint8_t lasTypeOfPcl(std::uint8_t datatype)
+{
+  for (int t = 1; t <= 10; ++t)
+    if (pclTypeOfLas(t) == datatype)
+      return static_cast<std::uint8_t>(t);
+  return 0;
+}
+
+bool isExtraBytesVlr(const LasVlr& v)
+{
+  return v.user_id == kSpecUser && v.record_id == kExtraBytesRecord && !v.extended;
+}
+
+/// A 192-byte descriptor of the Extra Bytes VLR: `las_type` (0: `undocumented` bytes, counted in
+/// the options byte), the name and a description, no no-data, min, max, scale or offset.
+std::vector<std::uint8_t> descriptor(std::uint8_t las_type, std::size_t undocumented, const std::string& name,
+                                     const std::string& description)
+{
+  std::vector<std::uint8_t> d(kExtraBytesDescriptor, 0);
+  d[2] = las_type;
+  d[3] = static_cast<std::uint8_t>(las_type == 0 ? undocumented : 0);
+  std::memcpy(d.data() + 4, name.data(), std::min<std::size_t>(31, name.size()));
+  std::memcpy(d.data() + 160, description.data(), std::min<std::size_t>(31, description.size()));
+  return d;
+}
+}  // namespace
+
+bool extraDims(const LasInfo& info, std::vector<ExtraDim>& dims, std::string& why)
+{
+  dims.clear();
+  const auto vlr = std::find_if(info.vlrs.begin(), info.vlrs.end(), isExtraBytesVlr);
+  if (vlr == info.vlrs.end())
+    return true;
+  const std::vector<std::uint8_t>& data = vlr->data;
+  if (data.size() % kExtraBytesDescriptor != 0)
+  {
+    why = "its Extra Bytes VLR holds " + std::to_string(data.size()) + " bytes, not a whole number of 192-byte descriptors";
+    return false;
+  }
+  std::size_t offset = 0;
+  for (std::size_t at = 0; at < data.size(); at += kExtraBytesDescriptor)
+  {
+    const std::uint8_t* d = data.data() + at;
+    ExtraDim e;
+    e.las_type = d[2];
+    const std::uint8_t options = d[3];
+    e.name = std::string(reinterpret_cast<const char*>(d + 4), 32);
+    e.name = e.name.substr(0, e.name.find('\0'));
+    if (e.las_type == 0)
+      e.size = options;  // undocumented extra bytes: the options byte counts them
+    else if (e.las_type <= 30)
+    {
+      const int base = (e.las_type - 1) % 10 + 1, components = (e.las_type - 1) / 10 + 1;
+      e.size = detail::datatypeSize(pclTypeOfLas(base)) * static_cast<std::size_t>(components);
+      // A plain number: one component, neither scaled nor offset (options bits 3 and 4).
+      if (components == 1 && (options & 0x18u) == 0)
+        e.datatype = pclTypeOfLas(base);
+    }
+    else
+    {
+      why = "its Extra Bytes VLR describes \"" + detail::quote(e.name) + "\" with data type " +
+            std::to_string(int{e.las_type}) + ", which LAS does not define";
+      return false;
+    }
+    e.offset = offset;
+    offset += e.size;
+    dims.push_back(std::move(e));
+  }
+  return true;
+}
+
 std::vector<pcl::PCLPointField> cloudFields(int format, std::size_t extra, std::uint32_t& step)
 {
   pcl::PCLPointCloud2 c;
@@ -431,6 +517,23 @@ void decodeRecords(const Layout& layout, const std::uint8_t* raw, std::size_t n,
   }
 }
 
+namespace
+{
+/// A name parseLas gives a field of some point format (x y z, a dimension, extra_bytes) or a PCL
+/// colour field.
+bool isLasFieldName(const std::string& name)
+{
+  for (const char* own : {"x", "y", "z", "extra_bytes", "rgb", "rgba"})
+    if (name == own)
+      return true;
+  for (int format = 0; format <= 10; ++format)
+    for (const Dim& d : dimsOf(format))
+      if (name == d.name)
+        return true;
+  return false;
+}
+}  // namespace
+
 Encoder::Encoder(const std::vector<pcl::PCLPointField>& fields, std::uint32_t point_step, const LasInfo& info)
   : fields_(fields), step_(point_step), info_(info)
 {
@@ -451,8 +554,19 @@ Encoder::Encoder(const std::vector<pcl::PCLPointField>& fields, std::uint32_t po
     fail("point format ", int{info.point_format}, " with records of ", info.record_length, " bytes cannot be written");
   packed_rgb_ = fieldOf("rgb") ? fieldOf("rgb") : fieldOf("rgba");
   extra_field_ = fieldOf("extra_bytes");
-  if (extra_field_ && (extra_field_->datatype != Field::UINT8 || extra_field_->count != info.record_length - standard))
+  if (extra_field_ && (extra_field_->datatype != Field::UINT8 || extra_field_->count > info.record_length - standard))
     extra_field_ = nullptr;
+  // Extra dimensions of the header the cloud has a field for (addLasExtraDimensions): written after
+  // the extra bytes the cloud holds. A header whose Extra Bytes VLR cannot be read names none, and
+  // a descriptor named as a field every LAS record has (x, intensity, ...) is not one: a cloud read
+  // from a LAS file is written back byte for byte whatever its VLR says.
+  std::vector<ExtraDim> dims;
+  std::string why;
+  if (extraDims(info, dims, why))
+    for (const ExtraDim& d : dims)
+      if (const Field* f = fieldOf(d.name.c_str());
+          f && d.datatype != 0 && !isLasFieldName(d.name) && standard + d.offset + d.size <= info.record_length)
+        named_.emplace_back(d, f);
   for (const Dim& d : dimsOf(info.point_format))
   {
     Source s{d.datatype, d.offset, d.size, d.shift, d.bits, fieldOf(d.name), -1};
@@ -513,7 +627,15 @@ void Encoder::encode(const std::uint8_t* records, std::size_t n, std::uint64_t f
       writeUnsigned(dst + d.offset, d.size, (old & ~mask) | ((u << d.shift) & mask));
     }
     if (extra_field_)
-      std::memcpy(dst + standard, src + extra_field_->offset, len - standard);
+      std::memcpy(dst + standard, src + extra_field_->offset, extra_field_->count);
+    for (const auto& [d, f] : named_)
+    {
+      std::uint8_t* at = dst + standard + d.offset;
+      if (f->datatype == d.datatype)
+        std::memcpy(at, src + f->offset, d.size);
+      else
+        detail::storeValue(detail::loadValue(f->datatype, src + f->offset), d.datatype, at);
+    }
     const unsigned ret = info_.point_format <= 5 ? (dst[14] & 7u) : (dst[14] & 15u);
     if (ret >= 1 && ret <= 15)
       ++by_return[ret - 1];
@@ -718,6 +840,101 @@ void fitLasFrame(LasInfo& info, const std::array<double, 3>& lo, const std::arra
   }
 }
 
+LasInfo lasInfoFor(const pcl::PCLPointCloud2& cloud, const LasInfo* like)
+{
+  if (like)
+    return *like;
+  // The box of the finite points.
+  const std::size_t n = static_cast<std::size_t>(cloud.width) * cloud.height;
+  std::array<double, 3> lo, hi;
+  lo.fill(std::numeric_limits<double>::infinity());
+  hi.fill(-std::numeric_limits<double>::infinity());
+  for (int a = 0; a < 3; ++a)
+  {
+    const Field* f = nullptr;
+    for (const Field& g : cloud.fields)
+      if (g.name == std::string(1, "xyz"[a]) && detail::datatypeSize(g.datatype) > 0)
+        f = &g;
+    for (std::size_t i = 0; f && i < n; ++i)
+    {
+      const double v = detail::loadValue(f->datatype, cloud.data.data() + i * cloud.point_step + f->offset);
+      if (std::isfinite(v))
+      {
+        lo[a] = std::min(lo[a], v);
+        hi[a] = std::max(hi[a], v);
+      }
+    }
+  }
+  return defaultLasInfo(cloud.fields, lo, hi);
+}
+
+void addLasExtraDimensions(LasInfo& info, const std::vector<pcl::PCLPointField>& fields,
+                           const std::vector<ExtraDimension>& add)
+{
+  const std::size_t standard = lasStandardRecordLength(info.point_format);
+  if (standard == 0 || info.record_length < standard)
+    fail("point format ", int{info.point_format}, " with records of ", info.record_length, " bytes cannot be written");
+  std::vector<las::ExtraDim> dims;
+  std::string why;
+  if (!las::extraDims(info, dims, why))
+    fail(why);
+  std::size_t described = 0;
+  for (const las::ExtraDim& d : dims)
+    described += d.size;
+  std::size_t extra = info.record_length - standard;
+  if (described > extra)
+    fail("its Extra Bytes VLR describes ", described, " bytes but its records hold ", extra, " extra bytes");
+  auto vlr = std::find_if(info.vlrs.begin(), info.vlrs.end(), las::isExtraBytesVlr);
+  if (vlr == info.vlrs.end())
+  {
+    LasVlr v;
+    v.user_id = las::kSpecUser;
+    v.record_id = las::kExtraBytesRecord;
+    v.description = "Extra Bytes Record";
+    info.vlrs.push_back(std::move(v));  // after the header's other VLRs
+    vlr = std::prev(info.vlrs.end());
+  }
+  std::vector<std::uint8_t>& data = vlr->data;
+  // Extra bytes no descriptor covers are described as undocumented, at most 255 to a descriptor.
+  for (std::size_t left = extra - described; left > 0;)
+  {
+    const std::size_t part = std::min<std::size_t>(255, left);
+    const std::vector<std::uint8_t> d = las::descriptor(0, part, "", "");
+    data.insert(data.end(), d.begin(), d.end());
+    left -= part;
+  }
+  for (const ExtraDimension& x : add)
+  {
+    const auto f = std::find_if(fields.begin(), fields.end(), [&](const Field& g) { return g.name == x.name; });
+    if (f == fields.end())
+      fail("the cloud has no field \"", detail::quote(x.name), "\" to write as an extra dimension");
+    const std::uint8_t las_type = las::lasTypeOfPcl(f->datatype);
+    if (las_type == 0 || f->count != 1 || x.name.empty() || x.name.size() > 31)
+      fail("field \"", detail::quote(x.name), "\" is not one number with a name of 1 to 31 characters: it cannot be an extra dimension");
+    if (las::isLasFieldName(x.name))
+      fail("\"", detail::quote(x.name), "\" is the name of a LAS dimension: it cannot be an extra dimension");
+    const auto same = std::find_if(dims.begin(), dims.end(), [&](const las::ExtraDim& d) { return d.name == x.name; });
+    if (same != dims.end())
+    {
+      // The records hold this dimension already (a file this function wrote, simplified again):
+      // its bytes are written over.
+      if (same->datatype != f->datatype)
+        fail("the records have an extra dimension \"", detail::quote(x.name), "\" of another type already");
+      continue;
+    }
+    const std::size_t size = detail::datatypeSize(f->datatype);
+    if (standard + extra + size > 65535)
+      fail("records of ", standard + extra + size, " bytes: a LAS record holds at most 65,535");
+    const std::vector<std::uint8_t> d = las::descriptor(las_type, 0, x.name, x.description);
+    data.insert(data.end(), d.begin(), d.end());
+    dims.push_back({x.name, extra, size, las_type, f->datatype});
+    extra += size;
+  }
+  if (data.size() > 65535)
+    fail("an Extra Bytes VLR of ", data.size(), " bytes: a LAS VLR holds at most 65,535");
+  info.record_length = static_cast<std::uint16_t>(standard + extra);
+}
+
 std::string lasBytes(const pcl::PCLPointCloud2& cloud, const LasInfo* like, bool compressed)
 {
 #ifndef PCL_ECS_HAVE_LAZ
@@ -725,33 +942,7 @@ std::string lasBytes(const pcl::PCLPointCloud2& cloud, const LasInfo* like, bool
     noLaz();
 #endif
   const std::size_t n = static_cast<std::size_t>(cloud.width) * cloud.height;
-  LasInfo info;
-  if (like)
-    info = *like;
-  else
-  {
-    // The box of the finite points.
-    std::array<double, 3> lo, hi;
-    lo.fill(std::numeric_limits<double>::infinity());
-    hi.fill(-std::numeric_limits<double>::infinity());
-    for (int a = 0; a < 3; ++a)
-    {
-      const Field* f = nullptr;
-      for (const Field& g : cloud.fields)
-        if (g.name == std::string(1, "xyz"[a]) && detail::datatypeSize(g.datatype) > 0)
-          f = &g;
-      for (std::size_t i = 0; f && i < n; ++i)
-      {
-        const double v = detail::loadValue(f->datatype, cloud.data.data() + i * cloud.point_step + f->offset);
-        if (std::isfinite(v))
-        {
-          lo[a] = std::min(lo[a], v);
-          hi[a] = std::max(hi[a], v);
-        }
-      }
-    }
-    info = defaultLasInfo(cloud.fields, lo, hi);
-  }
+  LasInfo info = lasInfoFor(cloud, like);
   info.generating_software = std::string("pcl_ecs ") + PCL_ECS_VERSION_STRING;
   las::Encoder enc(cloud.fields, cloud.point_step, info);
   std::vector<std::uint8_t> records;

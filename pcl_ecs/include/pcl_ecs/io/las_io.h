@@ -91,6 +91,30 @@ void probeLas(const std::string& header_bytes, std::uint64_t file_size, std::uin
  * scale and offset, or for LAZ when the library is built without it. */
 std::string lasBytes(const pcl::PCLPointCloud2& cloud, const LasInfo* like, bool compressed);
 
+/** \brief The header lasBytes(cloud, like, ...) writes the cloud with: `like`, or without it the
+ * header of defaultLasInfo for the cloud's fields and the box of its finite points. */
+LasInfo lasInfoFor(const pcl::PCLPointCloud2& cloud, const LasInfo* like);
+
+/** \brief A cloud field to write as an extra dimension of LAS records (addLasExtraDimensions). */
+struct ExtraDimension
+{
+  std::string name;         ///< the field's name, 1 to 31 characters, also the dimension's
+  std::string description;  ///< up to 31 characters
+};
+
+/** \brief Makes the records of `info` hold the cloud fields `add` (each one number of any PCL
+ * type; `fields` are the cloud's) as extra dimensions after the extra bytes they have: the record
+ * length grows by their sizes and the Extra Bytes VLR (user "LASF_Spec", record 4; laspy, PDAL,
+ * CloudCompare and LAStools read it in any LAS version) describes them, with the name and type of
+ * the field. Extra bytes no descriptor covered are first described as undocumented. A dimension the
+ * records already have with that name and type (a file written so, simplified again) is written
+ * over instead. lasBytes and LasStreamWriter then write those fields' values there. Throws
+ * FormatError when a field is missing or not one number, a dimension of that name has another
+ * type, the Extra Bytes VLR cannot be read or describes more bytes than the records hold, or a
+ * record would pass 65,535 bytes. */
+void addLasExtraDimensions(LasInfo& info, const std::vector<pcl::PCLPointField>& fields,
+                           const std::vector<ExtraDimension>& add);
+
 /** \brief True when LAZ can be read and written (the library was built with the laz crate). */
 bool lazSupported();
 
