@@ -531,22 +531,30 @@ TEST(LasIo, CloudFieldsBecomeExtraDimensionsThatTheExtraBytesVlrDescribes)
       continue;
     pcl::PCLPointCloud2 back;
     io::LasInfo back_info;
-    io::parseLas(io::lasBytes(c, &info, laz), back, &back_info);
+    const std::string bytes = io::lasBytes(c, &info, laz);
+    io::parseLas(bytes, back, &back_info);
     ASSERT_EQ(back.width, n);
     EXPECT_EQ(back_info.record_length, info.record_length);
     ASSERT_NE(extraBytesVlr(back_info), nullptr);
     EXPECT_EQ(extraBytesVlr(back_info)->data, vlr->data);
-    const int fe = io::fieldIndex(back.fields, "extra_bytes");
-    ASSERT_GE(fe, 0);
-    ASSERT_EQ(back.fields[static_cast<std::size_t>(fe)].count, 5u);
+    // Read back as fields of their own, named and typed as the VLR says.
+    EXPECT_LT(io::fieldIndex(back.fields, "extra_bytes"), 0);
+    const int fl = io::fieldIndex(back.fields, "ecs_label"), fr = io::fieldIndex(back.fields, "ecs_radius");
+    ASSERT_GE(fl, 0);
+    ASSERT_GE(fr, 0);
+    EXPECT_EQ(back.fields[static_cast<std::size_t>(fl)].datatype, Field::UINT8);
+    EXPECT_EQ(back.fields[static_cast<std::size_t>(fr)].datatype, Field::FLOAT32);
     for (std::size_t i = 0; i < n; ++i)
     {
-      const std::uint8_t* e = back.data.data() + i * back.point_step + back.fields[static_cast<std::size_t>(fe)].offset;
+      const std::uint8_t* rec = back.data.data() + i * back.point_step;
       float r = 0.0f;
-      std::memcpy(&r, e + 1, 4);
-      EXPECT_EQ(e[0], 1 + i % 2) << "point " << i << (laz ? " (LAZ)" : "");
+      std::memcpy(&r, rec + back.fields[static_cast<std::size_t>(fr)].offset, 4);
+      EXPECT_EQ(rec[back.fields[static_cast<std::size_t>(fl)].offset], 1 + i % 2)
+          << "point " << i << (laz ? " (LAZ)" : "");
       EXPECT_EQ(r, 0.25f * static_cast<float>(i)) << "point " << i << (laz ? " (LAZ)" : "");
     }
+    // Read and written again: the same file.
+    EXPECT_EQ(io::lasBytes(back, &back_info, laz), bytes);
 
     // Written again with the same dimensions (a file of ours simplified again): the records hold
     // them already, their bytes are written over, and the file is the one written before.
@@ -597,6 +605,62 @@ TEST(LasIo, ExtraBytesNoVlrDescribesAreDescribedAsUndocumentedFirst)
     const std::uint8_t* e = back.data.data() + i * back.point_step + back.fields[static_cast<std::size_t>(fe)].offset;
     EXPECT_EQ(std::vector<int>(e, e + 4), (std::vector<int>{7, 8, static_cast<int>(i), 2})) << "point " << i;
   }
+}
+
+TEST(LasIo, ExtraBytesAreOneFieldUnlessTheVlrNamesEachAsAPlainNumber)
+{
+  // Two float dimensions named in the VLR: two fields. Each way the VLR can fail to name them
+  // plainly (a LAS dimension's name, a name with a space, one name twice, a scale, a 3-vector,
+  // fewer bytes described than the records hold): one field `extra_bytes` of 8 bytes. Every file
+  // is read and written again byte for byte.
+  const std::size_t n = 20;
+  pcl::PCLPointCloud2 c = cloudOf(n, {{"x", Field::FLOAT64}, {"y", Field::FLOAT64}, {"z", Field::FLOAT64},
+                                      {"a", Field::FLOAT32}, {"b", Field::FLOAT32}});
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    std::uint8_t* p = c.data.data() + i * c.point_step;
+    const double xyz[3] = {static_cast<double>(i), static_cast<double>(i % 5), 1.0};
+    const float ab[2] = {static_cast<float>(i) + 0.5f, -static_cast<float>(i)};
+    std::memcpy(p, xyz, 24);
+    std::memcpy(p + 24, ab, 8);
+  }
+  io::LasInfo named = io::lasInfoFor(c, nullptr);
+  io::addLasExtraDimensions(named, c.fields, {{"a", ""}, {"b", ""}});
+  auto fieldsOf = [&](const io::LasInfo& info) {
+    pcl::PCLPointCloud2 back;
+    const std::string bytes = io::lasBytes(c, &info, false);
+    io::LasInfo back_info;
+    io::parseLas(bytes, back, &back_info);
+    EXPECT_EQ(io::lasBytes(back, &back_info, false), bytes);
+    std::string names;
+    for (const Field& f : back.fields)  // the fields after point format 0's
+      if (f.offset >= back.point_step - 8)
+        names += f.name + "(" + std::to_string(f.count) + ") ";
+    return names;
+  };
+  EXPECT_EQ(fieldsOf(named), "a(1) b(1) ");
+  auto patched = [&](std::size_t at, const void* bytes, std::size_t len) {
+    io::LasInfo i = named;
+    for (io::LasVlr& v : i.vlrs)
+      if (v.user_id == "LASF_Spec" && v.record_id == 4)
+        std::memcpy(v.data.data() + at, bytes, len);
+    return i;
+  };
+  const std::uint8_t scaled = 0x08, vector3 = 29;  // options: scale given; 3 × float
+  EXPECT_EQ(fieldsOf(patched(192 + 4, "intensity", 10)), "extra_bytes(8) ");
+  EXPECT_EQ(fieldsOf(patched(192 + 4, "b c", 4)), "extra_bytes(8) ");
+  EXPECT_EQ(fieldsOf(patched(192 + 4, "a", 2)), "extra_bytes(8) ");
+  EXPECT_EQ(fieldsOf(patched(192 + 3, &scaled, 1)), "extra_bytes(8) ");
+  io::LasInfo one = patched(2, &vector3, 1);  // the first is 12 bytes now: more than the records
+  for (io::LasVlr& v : one.vlrs)
+    if (v.user_id == "LASF_Spec")
+      v.data.resize(192);
+  EXPECT_EQ(fieldsOf(one), "extra_bytes(8) ");
+  io::LasInfo short_vlr = named;
+  for (io::LasVlr& v : short_vlr.vlrs)
+    if (v.user_id == "LASF_Spec")
+      v.data.resize(192);  // describes "a" alone
+  EXPECT_EQ(fieldsOf(short_vlr), "extra_bytes(8) ");
 }
 
 TEST(LasIo, ExtraDimensionsThatCannotBeAddedAreRefusedWithWhy)

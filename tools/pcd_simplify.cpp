@@ -87,8 +87,8 @@ Output:
                       an extra dimension (Extra Bytes VLR: laspy, PDAL, CloudCompare read it)
   --radii             add a field 'ecs_radius' (float; in LAS and LAZ an extra dimension): the
                       radius of the ball each point stands for, 0 for a feature point;
-                      pcd_reconstruct meshes a PCD or PLY with it as --mesh does (refusing
-                      triangles between balls far from overlapping)
+                      pcd_reconstruct meshes with it as --mesh does (refusing triangles between
+                      balls far from overlapping)
   --mesh FILE         also triangulate the simplified cloud with Cocone and write the mesh to
                       FILE (.ply, .obj or .vtk); the Cocone flags below tune it
   --stats FILE.json   write what was done: parameters, counts, time per stage, largest error,

@@ -307,34 +307,32 @@ TEST_F(Cli, OutputProblemsAreRefusedBeforeAnyWork)
 
 namespace
 {
-/// Per point of `c`: its ecs_label and ecs_radius fields (PCD, PLY), or the 5 extra bytes after
-/// the records' first `skip` (LAS, LAZ: the extra dimensions --labels --radii add), as bytes.
-std::vector<std::array<std::uint8_t, 5>> labelsAndRadii(const pcl::PCLPointCloud2& c, std::size_t skip = 0)
+/// Per point of `c`: its ecs_label and ecs_radius fields as bytes (a LAS or LAZ file's extra
+/// dimensions are read as such fields).
+std::vector<std::array<std::uint8_t, 5>> labelsAndRadii(const pcl::PCLPointCloud2& c)
 {
   std::vector<std::array<std::uint8_t, 5>> v(static_cast<std::size_t>(c.width) * c.height);
   const int fl = pcl_ecs::io::fieldIndex(c.fields, "ecs_label"), fr = pcl_ecs::io::fieldIndex(c.fields, "ecs_radius");
-  const int fe = pcl_ecs::io::fieldIndex(c.fields, "extra_bytes");
+  if (fl < 0 || fr < 0)
+  {
+    ADD_FAILURE() << "no ecs_label and ecs_radius fields";
+    return {};
+  }
   for (std::size_t i = 0; i < v.size(); ++i)
   {
     const std::uint8_t* rec = c.data.data() + i * c.point_step;
-    if (fl >= 0 && fr >= 0)
-    {
-      v[i][0] = rec[c.fields[static_cast<std::size_t>(fl)].offset];
-      std::memcpy(&v[i][1], rec + c.fields[static_cast<std::size_t>(fr)].offset, 4);
-    }
-    else if (fe >= 0 && c.fields[static_cast<std::size_t>(fe)].count == skip + 5)
-      std::memcpy(v[i].data(), rec + c.fields[static_cast<std::size_t>(fe)].offset + skip, 5);
-    else
-      ADD_FAILURE() << "neither the fields nor 5 extra bytes after " << skip;
+    v[i][0] = rec[c.fields[static_cast<std::size_t>(fl)].offset];
+    std::memcpy(&v[i][1], rec + c.fields[static_cast<std::size_t>(fr)].offset, 4);
   }
   return v;
 }
 }  // namespace
 
 // --labels and --radii with a LAS or LAZ output: extra dimensions after the records' own extra
-// bytes, holding what the PCD output holds in its fields; a LAS output of ours simplified again
-// gets its dimensions written over (the records do not grow). An input whose Extra Bytes VLR cannot
-// be extended is refused before any work (exit 4); without the flags it passes through.
+// bytes, read back as fields holding what the PCD output's fields hold; a LAS output of ours
+// simplified again gets its dimensions written over (the records do not grow). An input whose
+// Extra Bytes VLR cannot be extended is refused before any work (exit 4); without the flags it
+// passes through.
 TEST_F(Cli, LabelsAndRadiiInLasAndLazAreExtraDimensions)
 {
   namespace io = pcl_ecs::io;

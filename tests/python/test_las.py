@@ -13,6 +13,7 @@ import subprocess
 import laspy
 import laspy.vlrs.vlrlist
 import numpy as np
+import pcl_ecs
 import pytest
 
 N = 6000
@@ -245,6 +246,10 @@ def test_labels_and_radii_are_extra_dimensions_laspy_reads(tools, tmp_path, vers
     balls = radius[label == 2]
     assert (balls >= 0).all() and (balls > 0).mean() > 0.5
     assert (label == 2).sum() == stats["counts"]["balls"]
+    # Our reader gives the extra dimensions as fields of their own, as laspy does.
+    ours = pcl_ecs.read(str(out))
+    for d in got.point_format.extra_dimension_names:
+        assert np.asarray(ours[d]).tobytes() == np.asarray(got[d]).tobytes(), d
 
 
 def test_labels_and_radii_past_what_laz_holds_are_refused_before_any_work(tools, tmp_path):

@@ -137,7 +137,13 @@ CloudRun simplifyCloud(const pcl::PCLPointCloud2& input, const Parameters& given
   // The output: the source records, packed, representatives moved to their optimised point.
   pcl::PCLPointCloud2& out = run.output;
   out.header = input.header;
-  out.point_step = io::packedFields(fields, out.fields);
+  // A field this run adds (ecs_label, ecs_radius) that the input has already (a LAS extra dimension
+  // or a PCD field of an earlier run) is not copied: the new values replace it.
+  std::vector<pcl::PCLPointField> kept;
+  for (const pcl::PCLPointField& f : fields)
+    if (!(options.labels && f.name == "ecs_label") && !(options.radii && f.name == "ecs_radius"))
+      kept.push_back(f);
+  out.point_step = io::packedFields(kept, out.fields);
   const std::size_t m = r.labels.size();
   out.width = static_cast<std::uint32_t>(m);
   out.height = 1;

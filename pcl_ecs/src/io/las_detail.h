@@ -86,15 +86,19 @@ struct Layout : Header
 Layout readLayout(const std::string& head, std::uint64_t file_size, const ReadAt& read_at,
                   std::uint64_t max_vlr_bytes = ~std::uint64_t{0});
 
-/// The fields of a cloud read from point format `format` with `extra` extra bytes.
+/// The fields of a cloud read from point format `format` with `extra` extra bytes: x y z, the
+/// format's dimensions, the extra bytes as one field `extra_bytes`.
 std::vector<pcl::PCLPointField> cloudFields(int format, std::size_t extra, std::uint32_t& step);
+
+/// The fields of a cloud read from a file of `layout`: as above, but the extra bytes as one field
+/// per extra dimension when the Extra Bytes VLR describes all of them (namedExtraDims). Either
+/// way the extra bytes lie together at the end of the record, as in the file.
+std::vector<pcl::PCLPointField> cloudFields(const Layout& layout, std::uint32_t& step);
 
 /// `n` raw LAS records → records of `step` bytes in the layout of cloudFields.
 void decodeRecords(const Layout& layout, const std::uint8_t* raw, std::size_t n,
                    const std::vector<pcl::PCLPointField>& fields, std::uint32_t step, std::uint8_t* dst);
 
-/// Records in any layout with a LAS dimension's names → raw LAS records of `info`'s format, and the
-/// bounds and counts by return that the header states.
 /// One dimension the Extra Bytes VLR (user "LASF_Spec", record 4) describes: its name, where it
 /// lies in a record's extra bytes, its size, and its PCL datatype when it is one plain number
 /// (0 for undocumented bytes, a 2- or 3-vector, or a value with a scale or an offset).
@@ -111,6 +115,14 @@ struct ExtraDim
 /// descriptors, or a data type LAS does not define.
 bool extraDims(const LasInfo& info, std::vector<ExtraDim>& dims, std::string& why);
 
+/// The extra dimensions a reader gives as fields of their own: every one the Extra Bytes VLR of
+/// `info` describes, when each is one plain number (ExtraDim::datatype) named with letters, digits
+/// and '_' only (a PCD or PLY field name), not as a LAS field, no name twice, and together they
+/// are the records' `extra` bytes; else none (the extra bytes travel as one field `extra_bytes`).
+std::vector<ExtraDim> namedExtraDims(const LasInfo& info, std::size_t extra);
+
+/// Records in any layout with a LAS dimension's names → raw LAS records of `info`'s format, and the
+/// bounds and counts by return that the header states.
 class Encoder
 {
 public:

@@ -315,6 +315,20 @@ constexpr const char* kSpecUser = "LASF_Spec";
 constexpr std::uint16_t kExtraBytesRecord = 4;
 constexpr std::size_t kExtraBytesDescriptor = 192;
 
+/// A name parseLas gives a field of some point format (x y z, a dimension, extra_bytes) or a PCL
+/// colour field.
+bool isLasFieldName(const std::string& name)
+{
+  for (const char* own : {"x", "y", "z", "extra_bytes", "rgb", "rgba"})
+    if (name == own)
+      return true;
+  for (int format = 0; format <= 10; ++format)
+    for (const Dim& d : dimsOf(format))
+      if (name == d.name)
+        return true;
+  return false;
+}
+
 /// LAS extra-byte data types 1-10 (u8 i8 u16 i16 u32 i32 u64 i64 f32 f64) as PCL datatypes.
 std::uint8_t pclTypeOfLas(int las_type)
 {
@@ -404,6 +418,43 @@ std::vector<pcl::PCLPointField> cloudFields(int format, std::size_t extra, std::
     detail::addField(c, d.name, d.datatype);
   if (extra > 0)
     detail::addField(c, "extra_bytes", Field::UINT8, static_cast<std::uint32_t>(extra));
+  step = c.point_step;
+  return c.fields;
+}
+
+std::vector<ExtraDim> namedExtraDims(const LasInfo& info, std::size_t extra)
+{
+  std::vector<ExtraDim> dims;
+  std::string why;
+  if (extra == 0 || !extraDims(info, dims, why))
+    return {};
+  std::size_t described = 0;
+  for (std::size_t k = 0; k < dims.size(); ++k)
+  {
+    const ExtraDim& d = dims[k];
+    const bool plain_name =
+        !d.name.empty() && std::all_of(d.name.begin(), d.name.end(), [](char ch) {
+          return (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') || ch == '_';
+        });
+    if (d.datatype == 0 || !plain_name || isLasFieldName(d.name))
+      return {};
+    for (std::size_t j = 0; j < k; ++j)
+      if (dims[j].name == d.name)
+        return {};
+    described += d.size;
+  }
+  return described == extra ? dims : std::vector<ExtraDim>();
+}
+
+std::vector<pcl::PCLPointField> cloudFields(const Layout& layout, std::uint32_t& step)
+{
+  const std::vector<ExtraDim> named = namedExtraDims(layout.info, layout.extra());
+  if (named.empty())
+    return cloudFields(layout.format, layout.extra(), step);
+  pcl::PCLPointCloud2 c;
+  c.fields = cloudFields(layout.format, 0, c.point_step);
+  for (const ExtraDim& d : named)
+    detail::addField(c, d.name, d.datatype);
   step = c.point_step;
   return c.fields;
 }
@@ -517,22 +568,6 @@ void decodeRecords(const Layout& layout, const std::uint8_t* raw, std::size_t n,
   }
 }
 
-namespace
-{
-/// A name parseLas gives a field of some point format (x y z, a dimension, extra_bytes) or a PCL
-/// colour field.
-bool isLasFieldName(const std::string& name)
-{
-  for (const char* own : {"x", "y", "z", "extra_bytes", "rgb", "rgba"})
-    if (name == own)
-      return true;
-  for (int format = 0; format <= 10; ++format)
-    for (const Dim& d : dimsOf(format))
-      if (name == d.name)
-        return true;
-  return false;
-}
-}  // namespace
 
 Encoder::Encoder(const std::vector<pcl::PCLPointField>& fields, std::uint32_t point_step, const LasInfo& info)
   : fields_(fields), step_(point_step), info_(info)
@@ -784,7 +819,7 @@ void parseLas(const std::string& bytes, pcl::PCLPointCloud2& cloud, LasInfo* inf
   }
   std::uint32_t step = 0;
   cloud = pcl::PCLPointCloud2();
-  cloud.fields = las::cloudFields(l.format, l.extra(), step);
+  cloud.fields = las::cloudFields(l, step);
   cloud.point_step = step;
   cloud.width = static_cast<std::uint32_t>(n);
   cloud.height = 1;

@@ -79,7 +79,7 @@ LasStreamReader::LasStreamReader(const std::string& path) : impl_(std::make_uniq
         fail("its VLRs and EVLRs hold more than ", kMaxStreamVlrBytes >> 20, " MiB, more than this reader keeps");
       return m.readAt(offset, n);
     });
-    fields_ = las::cloudFields(m.layout.format, m.layout.extra(), step_);
+    fields_ = las::cloudFields(m.layout, step_);
     if (m.layout.compressed && m.layout.points > 0)  // no points: nothing to decompress
     {
 #ifdef PCL_ECS_HAVE_LAZ

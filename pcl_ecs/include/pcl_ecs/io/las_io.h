@@ -10,8 +10,9 @@
 //                 scan_angle point_source_id
 //   and, by format: gps_time (1, 3-10), red green blue (uint16; 2, 3, 5, 7, 8, 10), nir (8, 10),
 //   wavepacket_index wavepacket_offset (uint64) wavepacket_size return_point_wave_location
-//   x_t y_t z_t (4, 5, 9, 10); the extra bytes of a record as one uint8 field `extra_bytes` of
-//   that count.
+//   x_t y_t z_t (4, 5, 9, 10); the extra bytes of a record as one field per extra dimension when
+//   the Extra Bytes VLR names each as one plain number (its name and type), else as one uint8
+//   field `extra_bytes` of that count.
 // The header travels beside the cloud as LasInfo (version, point format, scale, offset, VLRs and
 // EVLRs such as the CRS, file source id, GUID, creation date), so that writing a cloud read from a
 // LAS file gives a file of the same kind: a point whose x y z did not change is written as the same
