@@ -465,6 +465,47 @@ TEST(LasIo, ALazWhoseVlrListsAnItemTwiceIsRefused)
   std::filesystem::remove(path);
 }
 
+TEST(LasIo, ALazOfPointFormats6To10WithoutTheLayeredCompressorIsRefused)
+{
+  // Point format 6 is compressed in layers (compressor 3); a LASzip VLR that names its items with
+  // the point-wise compressors (1, 2) made the codec read layer sizes the file does not hold and
+  // allocate them (1.8 GB for an 893-byte file the fuzzer made: tests/fuzz/corpus/laz_pointwise_layered).
+  if (!io::lazSupported())
+    GTEST_SKIP() << "built without LAZ";
+  pcl::PCLPointCloud2 read;
+  io::LasInfo info;
+  io::parseLas(io::lasBytes(utmCloud(300), nullptr, false), read, &info);
+  info.version_minor = 4;
+  info.point_format = 6;
+  info.record_length = static_cast<std::uint16_t>(io::lasStandardRecordLength(6));
+  const std::string laz = io::lasBytes(read, &info, true);
+  const std::size_t items = laszipItemsAt(laz);
+  ASSERT_NE(items, std::string::npos);
+  std::uint16_t compressor = 0;
+  std::memcpy(&compressor, &laz[items - 34], 2);
+  ASSERT_EQ(compressor, 3u);
+  pcl::PCLPointCloud2 good;
+  io::parseLas(laz, good);
+  EXPECT_EQ(good.width, 300u);
+  const std::string path =
+      (std::filesystem::temp_directory_path() / ("pcl_ecs_laz_layers_" + std::to_string(::getpid()) + ".laz")).string();
+  for (const std::uint16_t pointwise : {1, 2})
+  {
+    std::string bad = laz;
+    std::memcpy(&bad[items - 34], &pointwise, 2);
+    const ReadBothWays r = readBothWays(bad, path, 100);
+    EXPECT_NE(r.whole_error.find("not the layered one"), std::string::npos) << r.whole_error;
+    EXPECT_NE(r.chunked_error.find("not the layered one"), std::string::npos) << r.chunked_error;
+  }
+  std::ifstream found(std::string(PCL_ECS_SOURCE_DIR) + "/tests/fuzz/corpus/laz_pointwise_layered", std::ios::binary);
+  ASSERT_TRUE(found);
+  const std::string fuzzed((std::istreambuf_iterator<char>(found)), std::istreambuf_iterator<char>());
+  const ReadBothWays r = readBothWays(fuzzed.substr(1), path, 100);  // the fuzz target's first byte picks the reader
+  EXPECT_NE(r.whole_error.find("with compressor 1"), std::string::npos) << r.whole_error;
+  EXPECT_NE(r.chunked_error.find("with compressor 1"), std::string::npos) << r.chunked_error;
+  std::filesystem::remove(path);
+}
+
 namespace
 {
 /// The Extra Bytes VLR of `info` (LASF_Spec 4), or null.

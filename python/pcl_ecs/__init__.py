@@ -131,15 +131,22 @@ def write(path: str, points: Any, *, normals: Any = None, colors: Any = None, in
     `fields` adds any other per-point values by name: (N,) or (N, count) arrays of integers or
     floats, each kept as its own type in PCD and PLY (what `read` gives back); in LAS / LAZ the
     names of LAS dimensions (classification, gps_time, return_number, point_source_id, ...) go to
-    those dimensions and others are not written (docs/LAS.md)."""
+    those dimensions and the others become extra dimensions of their name and type (names of up to
+    31 characters; an (N, count) array as one dimension a column, NAME_0, NAME_1, ...), which
+    laspy, PDAL and CloudCompare read (docs/LAS.md)."""
     extra = None
     if fields is not None:
         extra = {}
+        las = str(path).lower().endswith((".las", ".laz"))
         for name, values in fields.items():
             a = np.ascontiguousarray(values)
             if a.dtype == np.bool_:
                 a = a.astype(np.uint8)
-            extra[str(name)] = a
+            if las and a.ndim == 2:
+                for c in range(a.shape[1]):
+                    extra[f"{name}_{c}"] = np.ascontiguousarray(a[:, c])
+            else:
+                extra[str(name)] = a
     _core._write(str(path), _as_points(points), _optional(normals, np.float32), _optional(colors, np.uint8),
                  _optional(intensity, np.float32), extra)
 

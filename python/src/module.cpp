@@ -297,8 +297,20 @@ void writeFile(const std::string& path, nb::ndarray<nb::c_contig, nb::device::cp
   const pcl::PCLPointCloud2 cloud = cloudFrom(points, normals, colors, intensity, fields);
   try
   {
+    // LAS / LAZ: the names of `fields` that are no LAS dimension become extra dimensions.
+    std::vector<pcl_ecs::io::ExtraDimension> dims;
+    if ((format == pcl_ecs::io::Format::Las || format == pcl_ecs::io::Format::Laz) && !fields.is_none())
+      for (auto [key, value] : nb::cast<nb::dict>(fields))
+        if (const std::string name = nb::cast<std::string>(key); !pcl_ecs::io::isLasFieldName(name))
+          dims.push_back({name, ""});
+    std::optional<pcl_ecs::io::LasInfo> las;
+    if (!dims.empty())
+    {
+      las = pcl_ecs::io::lasInfoFor(cloud, nullptr);
+      pcl_ecs::io::addLasExtraDimensions(*las, cloud.fields, dims);
+    }
     pcl_ecs::io::AtomicOutput out(path);
-    pcl_ecs::io::writeCloud(out.tempPath(), format, cloud, pcl_ecs::io::Encoding::Binary);
+    pcl_ecs::io::writeCloud(out.tempPath(), format, cloud, pcl_ecs::io::Encoding::Binary, las ? &*las : nullptr);
     out.commit();
   }
   catch (const pcl_ecs::io::FileError& e)

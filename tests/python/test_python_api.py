@@ -180,13 +180,27 @@ def test_write_keeps_any_named_field(tmp_path):
                 assert np.array_equal(got, v.astype(np.float64)), "PLY has no 64-bit integers: a double"
                 continue
             assert np.array_equal(got, v.astype(np.uint8) if v.dtype == bool else v), (name, k)
-    # LAS: the LAS dimensions by name (format 1: GPS time), checked by laspy.
+    # LAS: the LAS dimensions by name (format 1: GPS time), the others as extra dimensions (an
+    # (N, count) array a column each), checked by laspy; read gives them back by name.
     pcl_ecs.write(tmp_path / "f.las", pts, fields=fields)
     las = laspy.read(tmp_path / "f.las")
     assert las.header.point_format.id == 1
     assert np.array_equal(np.asarray(las.classification), fields["classification"])
     assert np.array_equal(np.asarray(las.gps_time), fields["gps_time"])
     assert np.array_equal(np.asarray(las.point_source_id), fields["point_source_id"])
+    columns = [f"descriptor_{c}" for c in range(5)]
+    assert list(las.point_format.extra_dimension_names) == ["label", "big"] + columns + ["flag"]
+    back = pcl_ecs.read(tmp_path / "f.las")
+    for k in ("label", "big", "flag"):
+        want = fields[k].astype(np.uint8) if k == "flag" else fields[k]
+        assert np.asarray(las[k]).dtype == want.dtype, k
+        assert np.array_equal(np.asarray(las[k]), want), k
+        assert np.array_equal(back[k], want), k
+    for c, name in enumerate(columns):
+        assert np.array_equal(np.asarray(las[name]), fields["descriptor"][:, c]), name
+    with pytest.raises(ValueError, match="1 to 31 characters"):
+        pcl_ecs.write(tmp_path / "long.las", pts, fields={"n" * 32: np.zeros(n)})
+    assert not (tmp_path / "long.las").exists()
     # Bad fields: what is wrong, and no file.
     for bad, match in [({"x": pts[:, 0]}, "given twice"), ({"c": np.zeros(n + 1)}, "N the number of points"),
                        ({"c": np.array(["a"] * n)}, "integers or floats"), ({"a b": np.zeros(n)}, "without spaces")]:

@@ -315,19 +315,6 @@ constexpr const char* kSpecUser = "LASF_Spec";
 constexpr std::uint16_t kExtraBytesRecord = 4;
 constexpr std::size_t kExtraBytesDescriptor = 192;
 
-/// A name parseLas gives a field of some point format (x y z, a dimension, extra_bytes) or a PCL
-/// colour field.
-bool isLasFieldName(const std::string& name)
-{
-  for (const char* own : {"x", "y", "z", "extra_bytes", "rgb", "rgba"})
-    if (name == own)
-      return true;
-  for (int format = 0; format <= 10; ++format)
-    for (const Dim& d : dimsOf(format))
-      if (name == d.name)
-        return true;
-  return false;
-}
 
 /// LAS extra-byte data types 1-10 (u8 i8 u16 i16 u32 i32 u64 i64 f32 f64) as PCL datatypes.
 std::uint8_t pclTypeOfLas(int las_type)
@@ -875,6 +862,18 @@ void fitLasFrame(LasInfo& info, const std::array<double, 3>& lo, const std::arra
   }
 }
 
+bool isLasFieldName(const std::string& name)
+{
+  for (const char* own : {"x", "y", "z", "extra_bytes", "rgb", "rgba"})
+    if (name == own)
+      return true;
+  for (int format = 0; format <= 10; ++format)
+    for (const Dim& d : dimsOf(format))
+      if (name == d.name)
+        return true;
+  return false;
+}
+
 LasInfo lasInfoFor(const pcl::PCLPointCloud2& cloud, const LasInfo* like)
 {
   if (like)
@@ -946,7 +945,7 @@ void addLasExtraDimensions(LasInfo& info, const std::vector<pcl::PCLPointField>&
     const std::uint8_t las_type = las::lasTypeOfPcl(f->datatype);
     if (las_type == 0 || f->count != 1 || x.name.empty() || x.name.size() > 31)
       fail("field \"", detail::quote(x.name), "\" is not one number with a name of 1 to 31 characters: it cannot be an extra dimension");
-    if (las::isLasFieldName(x.name))
+    if (isLasFieldName(x.name))
       fail("\"", detail::quote(x.name), "\" is the name of a LAS dimension: it cannot be an extra dimension");
     const auto same = std::find_if(dims.begin(), dims.end(), [&](const las::ExtraDim& d) { return d.name == x.name; });
     if (same != dims.end())

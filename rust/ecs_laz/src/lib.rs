@@ -282,6 +282,21 @@ fn checked_decompressor<'a, R: Read + Seek + Send + Sync + 'a>(
     // The compressor (the payload's first u16): 1 point-wise (one stream, no chunk table), 2
     // point-wise chunked, 3 layered chunked.
     let compressor = if vlr_bytes.len() >= 2 { u16::from_le_bytes([vlr_bytes[0], vlr_bytes[1]]) } else { 0 };
+    // The items of point formats 6-10 are compressed in layers, whose sizes the codec reads and
+    // allocates before the points; LASzip writes them with the layered compressor alone, which is
+    // the one whose layer sizes are checked below against the file.
+    let layered = vlr.items().iter().any(|i| {
+        matches!(
+            i.item_type(),
+            LazItemType::Point14 | LazItemType::RGB14 | LazItemType::RGBNIR14 | LazItemType::WavePacket14 | LazItemType::Byte14(_)
+        )
+    });
+    if layered && compressor != 3 {
+        return Err(format!(
+            "its LASzip VLR lists the layered items of point formats 6-10 with compressor {compressor}, \
+             not the layered one (3)"
+        ));
+    }
     if compressor != 1 {
         check_chunk_table(&mut src, len, point_offset, count, &vlr)?;
         // A chunked file's table must be readable: when it is not, the codec skips 8 bytes from

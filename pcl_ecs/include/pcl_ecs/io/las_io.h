@@ -96,6 +96,11 @@ std::string lasBytes(const pcl::PCLPointCloud2& cloud, const LasInfo* like, bool
  * header of defaultLasInfo for the cloud's fields and the box of its finite points. */
 LasInfo lasInfoFor(const pcl::PCLPointCloud2& cloud, const LasInfo* like);
 
+/** \brief Whether `name` is a field parseLas gives for some point format (x, y, z, a dimension such
+ * as intensity or gps_time, extra_bytes) or a PCL colour field (rgb, rgba): not a name for an
+ * extra dimension. */
+bool isLasFieldName(const std::string& name);
+
 /** \brief A cloud field to write as an extra dimension of LAS records (addLasExtraDimensions). */
 struct ExtraDimension
 {
