@@ -118,6 +118,19 @@ std::size_t laszipItemsAt(const std::string& laz)
   return user_id == std::string::npos ? user_id : user_id - 2 + 54 + 34;
 }
 
+/// 300 UTM points (utmCloud) as a LAZ of LAS 1.`minor`, point format `format`, with `extra` extra
+/// bytes a record.
+std::string utmLaz(std::uint8_t minor, std::uint8_t format, std::size_t extra)
+{
+  pcl::PCLPointCloud2 read;
+  io::LasInfo info;
+  io::parseLas(io::lasBytes(utmCloud(300), nullptr, false), read, &info);
+  info.version_minor = minor;
+  info.point_format = format;
+  info.record_length = static_cast<std::uint16_t>(io::lasStandardRecordLength(format) + extra);
+  return io::lasBytes(read, &info, true);
+}
+
 /// The number of items in that list.
 std::uint16_t laszipItemCount(const std::string& laz, std::size_t items)
 {
@@ -438,12 +451,7 @@ TEST(LasIo, ALazWhoseVlrListsAnItemTwiceIsRefused)
 {
   if (!io::lazSupported())
     GTEST_SKIP() << "built without LAZ";
-  pcl::PCLPointCloud2 read;
-  io::LasInfo info;
-  io::parseLas(io::lasBytes(utmCloud(300), nullptr, false), read, &info);
-  info.point_format = 1;
-  info.record_length = static_cast<std::uint16_t>(io::lasStandardRecordLength(1) + 8);
-  std::string laz = io::lasBytes(read, &info, true);
+  std::string laz = utmLaz(2, 1, 8);
   const std::size_t items = laszipItemsAt(laz);
   ASSERT_NE(items, std::string::npos);
   ASSERT_EQ(laszipItemCount(laz, items), 3u);  // Point10, GpsTime, Byte(8)
@@ -472,13 +480,7 @@ TEST(LasIo, ALazOfPointFormats6To10WithoutTheLayeredCompressorIsRefused)
   // allocate them (1.8 GB for an 893-byte file the fuzzer made: tests/fuzz/corpus/laz_pointwise_layered).
   if (!io::lazSupported())
     GTEST_SKIP() << "built without LAZ";
-  pcl::PCLPointCloud2 read;
-  io::LasInfo info;
-  io::parseLas(io::lasBytes(utmCloud(300), nullptr, false), read, &info);
-  info.version_minor = 4;
-  info.point_format = 6;
-  info.record_length = static_cast<std::uint16_t>(io::lasStandardRecordLength(6));
-  const std::string laz = io::lasBytes(read, &info, true);
+  const std::string laz = utmLaz(4, 6, 0);
   const std::size_t items = laszipItemsAt(laz);
   ASSERT_NE(items, std::string::npos);
   std::uint16_t compressor = 0;
