@@ -555,7 +555,6 @@ void decodeRecords(const Layout& layout, const std::uint8_t* raw, std::size_t n,
   }
 }
 
-
 Encoder::Encoder(const std::vector<pcl::PCLPointField>& fields, std::uint32_t point_step, const LasInfo& info)
   : fields_(fields), step_(point_step), info_(info)
 {
