@@ -30,10 +30,11 @@ walked into an oriented 2-manifold. Open surfaces keep their openings (Dey-Giese
 detection). No normals needed. Meant for clouds of a few hundred to a few million points, e.g. the
 output of pcd_simplify; on a dense scan, simplify first.
 
-INPUT   .pcd, .ply or .xyz/.txt/.pts/.asc (x y z, and colour if present). A field 'ecs_radius'
-        (pcd_simplify --radii: each point's ball radius, 0 where unknown) is used as
-        pcd_simplify --mesh uses it: triangles between balls far from overlapping are refused;
-        a negative or non-finite value is refused as a damaged file (exit 3).
+INPUT   .pcd, .ply, .las, .laz or .xyz/.txt/.pts/.asc (x y z, and colour if present). A field
+        or LAS extra dimension 'ecs_radius' (pcd_simplify --radii: each point's ball radius, 0
+        where unknown) is used as pcd_simplify --mesh uses it: triangles between balls far from
+        overlapping are refused; a negative or non-finite value is refused as a damaged file
+        (exit 3).
 OUTPUT  .ply (binary), .obj or .vtk, by extension; colour is written to PLY and VTK when the
         input has it. Only the vertices the triangles use are written. Written to a temporary
         file beside OUTPUT and renamed into place on success.

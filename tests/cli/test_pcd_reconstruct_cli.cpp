@@ -265,6 +265,18 @@ TEST_F(MeshCli, RadiiWrittenBySimplifyGiveReconstructTheSameMesh)
   const auto b = nlohmann::json::parse(slurp(path("b.json")))["counts"];
   EXPECT_GT(a["apart_triangles"].get<std::size_t>(), 0u);
   EXPECT_EQ(a["apart_triangles"], b["apart_triangles"]);
+  // The same radii as a LAS extra dimension: the same mesh (counted: LAS holds the coordinates as
+  // integers of its scale), and without them another one.
+  r = run(kSimplify, in + " " + path("s.las") + " --target-ratio 0.1 --radii --quiet");
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = run(kReconstruct, path("s.las") + " " + path("c.ply") + " --stats " + path("c.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(slurp(path("c.json")))["counts"], b);
+  r = run(kSimplify, in + " " + path("n.las") + " --target-ratio 0.1 --quiet");
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = run(kReconstruct, path("n.las") + " " + path("d.ply") + " --stats " + path("d.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(slurp(path("d.json")))["counts"]["apart_triangles"].get<std::size_t>(), 0u);
   // Out of core there is one output and no radii.
   r = run(kSimplify, in + " " + path("t.pcd") + " --stream --radii");
   EXPECT_EQ(r.code, 2);
