@@ -710,7 +710,9 @@ TEST(LasIo, ExtraDimensionsThatCannotBeAddedAreRefusedWithWhy)
 {
   pcl::PCLPointCloud2 c = cloudOf(4, {{"x", Field::FLOAT64}, {"y", Field::FLOAT64}, {"z", Field::FLOAT64},
                                       {"ecs_label", Field::UINT8}, {"ecs_radius", Field::FLOAT32}});
-  io::appendField(c, "normal", Field::FLOAT32, 3);
+  io::appendField(c, "normal", Field::FLOAT32, 3);  // the records grow with it
+  c.row_step = c.point_step * c.width;
+  c.data.assign(static_cast<std::size_t>(c.width) * c.point_step, 0);
   const io::LasInfo plain = io::lasInfoFor(c, nullptr);
   expectFormatError([&] { io::LasInfo i = plain; io::addLasExtraDimensions(i, c.fields, {{"missing", ""}}); },
                     "no field \"missing\"");
