@@ -63,6 +63,7 @@ double valueOf(const pcl::PCLPointCloud2& c, const std::string& name, std::size_
       {
       case Field::UINT8: return *p;
       case Field::UINT16: { std::uint16_t v; std::memcpy(&v, p, 2); return v; }
+      case Field::FLOAT32: { float v; std::memcpy(&v, p, 4); return v; }
       case Field::FLOAT64: { double v; std::memcpy(&v, p, 8); return v; }
       default: break;
       }
@@ -118,6 +119,14 @@ std::size_t laszipItemsAt(const std::string& laz)
   return user_id == std::string::npos ? user_id : user_id - 2 + 54 + 34;
 }
 
+/// The number of items in that list.
+std::uint16_t laszipItemCount(const std::string& laz, std::size_t items)
+{
+  std::uint16_t n = 0;
+  std::memcpy(&n, &laz[items - 2], 2);
+  return n;
+}
+
 /// 300 UTM points (utmCloud) as a LAZ of LAS 1.`minor`, point format `format`, with `extra` extra
 /// bytes a record.
 std::string utmLaz(std::uint8_t minor, std::uint8_t format, std::size_t extra)
@@ -129,14 +138,6 @@ std::string utmLaz(std::uint8_t minor, std::uint8_t format, std::size_t extra)
   info.point_format = format;
   info.record_length = static_cast<std::uint16_t>(io::lasStandardRecordLength(format) + extra);
   return io::lasBytes(read, &info, true);
-}
-
-/// The number of items in that list.
-std::uint16_t laszipItemCount(const std::string& laz, std::size_t items)
-{
-  std::uint16_t n = 0;
-  std::memcpy(&n, &laz[items - 2], 2);
-  return n;
 }
 }  // namespace
 
@@ -589,12 +590,9 @@ TEST(LasIo, CloudFieldsBecomeExtraDimensionsThatTheExtraBytesVlrDescribes)
     EXPECT_EQ(back.fields[static_cast<std::size_t>(fr)].datatype, Field::FLOAT32);
     for (std::size_t i = 0; i < n; ++i)
     {
-      const std::uint8_t* rec = back.data.data() + i * back.point_step;
-      float r = 0.0f;
-      std::memcpy(&r, rec + back.fields[static_cast<std::size_t>(fr)].offset, 4);
-      EXPECT_EQ(rec[back.fields[static_cast<std::size_t>(fl)].offset], 1 + i % 2)
-          << "point " << i << (laz ? " (LAZ)" : "");
-      EXPECT_EQ(r, 0.25f * static_cast<float>(i)) << "point " << i << (laz ? " (LAZ)" : "");
+      const std::string what = "point " + std::to_string(i) + (laz ? " (LAZ)" : "");
+      EXPECT_EQ(valueOf(back, "ecs_label", i), static_cast<double>(1 + i % 2)) << what;
+      EXPECT_EQ(valueOf(back, "ecs_radius", i), 0.25 * static_cast<double>(i)) << what;
     }
     // Read and written again: the same file.
     EXPECT_EQ(io::lasBytes(back, &back_info, laz), bytes);

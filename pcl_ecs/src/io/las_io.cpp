@@ -315,7 +315,6 @@ constexpr const char* kSpecUser = "LASF_Spec";
 constexpr std::uint16_t kExtraBytesRecord = 4;
 constexpr std::size_t kExtraBytesDescriptor = 192;
 
-
 /// LAS extra-byte data types 1-10 (u8 i8 u16 i16 u32 i32 u64 i64 f32 f64) as PCL datatypes.
 std::uint8_t pclTypeOfLas(int las_type)
 {
