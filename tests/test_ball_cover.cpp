@@ -15,6 +15,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 
 using namespace pcl_ecs_test;
@@ -231,6 +232,66 @@ TEST(BallCover, SameCoverWithAndWithoutAvx2)
   }
   EXPECT_EQ(differ, 0u);
   EXPECT_EQ(portable.out.owner, wide.out.owner);
+}
+
+// ColourCover: the first colour alone is exactly the first first_colour_balls balls of the whole
+// cover (the same centres, radii, representatives, the same points owned), for 1 and 2 threads;
+// finished, it is the whole cover bit for bit.
+TEST(BallCover, TheFirstColourIsThePrefixOfTheCoverAndFinishingItIsTheCover)
+{
+  auto cloud = fibonacciSphere(20000, 1.0, 0.001, 3);
+  for (const int threads : {1, 2})
+  {
+    SCOPED_TRACE(threads);
+    pcl_ecs::Parameters params;
+    params.threads = threads;
+    CoverRun whole(cloud, params, 5e-4);
+    const pcl_ecs::CoverInput in = whole.input();
+    pcl_ecs::ColourCover partial(in, params, 5e-4);
+    partial.run(1);
+    const std::vector<pcl_ecs::CoverBall> first = partial.firstColourBalls();
+    ASSERT_EQ(first.size(), whole.out.first_colour_balls);
+    ASSERT_GT(first.size(), 50u);
+    ASSERT_LT(first.size(), whole.out.balls.size() / 3);
+    for (std::size_t b = 0; b < first.size(); ++b)
+    {
+      const auto &f = first[b], &w = whole.out.balls[b];
+      EXPECT_EQ(f.centre, w.centre) << b;
+      EXPECT_EQ(0, std::memcmp(&f.radius, &w.radius, sizeof f.radius)) << b;
+      EXPECT_EQ(0, std::memcmp(f.representative.data(), w.representative.data(), 3 * sizeof(double))) << b;
+      EXPECT_EQ(f.replaced, w.replaced) << b;
+    }
+    pcl_ecs::CoverOutput finished;
+    partial.finish(finished);
+    ASSERT_EQ(finished.balls.size(), whole.out.balls.size());
+    EXPECT_EQ(finished.first_colour_balls, whole.out.first_colour_balls);
+    EXPECT_EQ(finished.owner, whole.out.owner);
+    std::size_t differ = 0;
+    for (std::size_t b = 0; b < finished.balls.size(); ++b)
+    {
+      const auto &f = finished.balls[b], &w = whole.out.balls[b];
+      differ += f.centre != w.centre || std::memcmp(&f.radius, &w.radius, sizeof f.radius) != 0 ||
+                        std::memcmp(f.representative.data(), w.representative.data(), 3 * sizeof(double)) != 0
+                    ? 1
+                    : 0;
+    }
+    EXPECT_EQ(differ, 0u);
+    EXPECT_EQ(finished.max_error, whole.out.max_error);
+  }
+  // The multiple (whole cover ÷ first colour) on a sphere at cap 2: near 8 / (1 + something) and
+  // falling as the balls grow to the cap and reach past their cells; steady once they are there.
+  std::vector<double> multiples;
+  pcl_ecs::Parameters capped;
+  capped.radius_cap_factor = 2.0;
+  for (const double terr : {2e-4, 1e-3, 4e-3})
+  {
+    CoverRun run(cloud, capped, terr);
+    multiples.push_back(static_cast<double>(run.out.balls.size()) / static_cast<double>(run.out.first_colour_balls));
+  }
+  EXPECT_GT(multiples[0], 6.0);
+  EXPECT_LT(multiples[0], 8.0);
+  EXPECT_GT(multiples[0], multiples[1]);
+  EXPECT_NEAR(multiples[1], multiples[2], 0.03 * multiples[2]);
 }
 
 // The representative rule (representativeOffset) on solutions whose minimiser is known.

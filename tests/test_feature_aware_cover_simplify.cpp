@@ -617,9 +617,9 @@ TEST(Filter, TargetSearchReachesTheSizeInFewCovers)
 }
 
 // The target-size search reuses covers (a gap bound widened at the same T and cap, a T tried
-// before) and stops probing T on a saturated cover: what it returns is exactly the plain run at
-// the T, cap and gap bound it settled on, on shapes where the gap, the cap and T each decide, and
-// in fewer covers than trials.
+// before), stops probing T on a saturated cover and estimates trials far from the size from the
+// cover's first colour: what it returns is exactly the plain run at the T, cap and gap bound it
+// settled on, on shapes where the gap, the cap and T each decide, and in fewer covers than trials.
 TEST(Filter, TargetSearchResultIsThePlainRunAtItsSettings)
 {
   struct Case
@@ -627,7 +627,9 @@ TEST(Filter, TargetSearchResultIsThePlainRunAtItsSettings)
     const char* file;
     double ratio;
   };
-  for (const Case& c : {Case{"bunny.pcd", 0.1}, Case{"bunny.pcd", 0.03}, Case{"fandisk_scan.pcd", 0.1}})
+  bool estimated = false;
+  for (const Case& c : {Case{"bunny.pcd", 0.1}, Case{"bunny.pcd", 0.03}, Case{"fandisk_scan.pcd", 0.1},
+                        Case{"terrain_csite2_utm.pcd", 0.1}})
   {
     SCOPED_TRACE(std::string(c.file) + " " + std::to_string(c.ratio));
     auto cloud = loadShared(c.file);
@@ -638,6 +640,8 @@ TEST(Filter, TargetSearchResultIsThePlainRunAtItsSettings)
     const auto& s = f.getResult().summary;
     EXPECT_NEAR(static_cast<double>(out.size()), static_cast<double>(target), 0.01 * static_cast<double>(target));
     EXPECT_LT(s.cover_passes, s.target_iterations) << "no cover was reused";
+    EXPECT_LE(s.cover_passes + s.estimated_trials, s.target_iterations);
+    estimated = estimated || s.estimated_trials > 0;
     Filter plain;
     plain.setErrorThreshold(s.error_threshold);
     plain.setRadiusCapFactor(s.radius_cap_factor);
@@ -651,6 +655,7 @@ TEST(Filter, TargetSearchResultIsThePlainRunAtItsSettings)
       same += out[i].getVector3fMap() == ref[i].getVector3fMap() ? 1 : 0;
     EXPECT_EQ(same, ref.size());
   }
+  EXPECT_TRUE(estimated) << "no trial was estimated from a first colour (the terrain at 10% has such steps)";
 }
 
 TEST(Filter, FeatureRepresentativeLabelsAndUtmCoordinates)

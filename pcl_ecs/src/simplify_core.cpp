@@ -20,6 +20,7 @@
 #include <cmath>
 #include <limits>
 #include <list>
+#include <optional>
 #include <sstream>
 #include <utility>
 
@@ -66,23 +67,45 @@ std::size_t runCover(const CoverInput& in, const Parameters& params, double terr
   return out.balls.size();
 }
 
+/// A trial whose first-colour estimate (CoverCounter) is farther than this fraction of the balls
+/// wanted from them, and than 4 / sqrt(the first colour's balls), is not run as a whole cover.
+/// The whole cover's balls are a multiple of the first colour's that depends on how far those
+/// balls reach past their cells (side 2 × cap): about 8 for balls far below the cap, 4.4-6.9 for
+/// balls at it on the shared scans, so it holds best between trials of similar ball sizes
+/// (1M-point bunny scan at 10%: 5.372-5.383 from T_err 4e-3, every ball at the cap, to 2.9e-4; a
+/// sphere at cap 2: 4.63 at the cap, 4.94 with three quarters of the balls below it, 6.60 with
+/// all). On outputs of a few thousand points it also moves by a few percent by chance (fandisk at
+/// 10%: 4.82-4.89; pinion at 3%: 4.54-4.67), so the band widens as the first colour's balls get
+/// fewer, and an estimate far off only costs the search a step (the trials near the size are
+/// whole covers).
+constexpr double kEstimateBand = 0.04;
+/// No trial is estimated from a whole cover with fewer first-colour balls than this: below it the
+/// multiple moves by more than the band from the saturated first cover to the next (room scan at
+/// 10%: 7.69 with about 300 first-colour balls at the cap, 6.83 once most are below it; the
+/// estimate misled the search into two more covers). 1,500 kept the gain on two runs of the 60.
+constexpr std::size_t kLeastFirstColourBalls = 500;
+
 /// The target-size search's count function (target_search.h): the cover at (T, cap), then the gap
 /// bound. The last few covers before their gap points are kept with their T and cap: a search
 /// that only widens the gap bound, or comes back to a T it tried at this cap, reuses the cover and
 /// redoes only the gap bound (the same result as running it again). Its prediction is the last
 /// trial's CoverSizeModel (stages/cover_size_model.h).
-/// Every other trial is a whole cover, so that the result is the plain run at the settings the
-/// search settled on (tested). Deriving a trial at a smaller T from a kept cover instead (the cells
-/// none of whose balls would change kept, the others covered again, the points a kept cell then
-/// leaves uncovered given to the nearest representative's ball) gives counts within 1% of whole
-/// covers and took 17% less CPU time on a 1M-point scan at 10%, 5% over the 60 shared target runs,
-/// with quality medians within 1%; it would give up that equality.
+/// A trial far from the size wanted is estimated instead (ColourCover::run(1): about a fifth of a
+/// cover's time): its first colour's balls times the multiple the last whole cover at the same
+/// cap and gap bound had, plus that cover's gap points. A trial whose estimate comes within the
+/// band above, and every trial the search keeps at the end (confirmKept), is a whole cover, so
+/// the result is the plain run at the settings the search settled on (tested).
+/// Deriving a trial at a smaller T from a kept cover instead (the cells none of whose balls would
+/// change kept, the others covered again, the points a kept cell then leaves uncovered given to
+/// the nearest representative's ball) gives counts within 1% of whole covers and took 17% less
+/// CPU time on a 1M-point scan at 10%, 5% over the 60 shared target runs, with quality medians
+/// within 1%; it would give up that equality.
 class CoverCounter : public TargetCounter
 {
 public:
-  CoverCounter(const CoverInput& in, const Parameters& params, CoverOutput& best,
+  CoverCounter(const CoverInput& in, const Parameters& params, double balls_wanted, CoverOutput& best,
                std::function<void(int)> progress)
-    : in_(in), params_(params), best_(best), progress_(std::move(progress))
+    : in_(in), params_(params), balls_wanted_(balls_wanted), best_(best), progress_(std::move(progress))
   {
   }
 
@@ -90,14 +113,23 @@ public:
   {
     params_.radius_cap_factor = cap_factor;
     const double cap = cap_factor * in_.neighborhood_radius;
+    trial_estimated_ = false;
+    progress_(++trials_);
     auto hit = std::find_if(covers_.begin(), covers_.end(),
                             [&](const CachedCover& c) { return c.terr == terr && c.cap == cap_factor; });
     if (hit == covers_.end())
     {
+      ColourCover cover(in_, params_, terr);
+      if (mayEstimate(cap_factor, gap_factor))
+      {
+        cover.run(1);
+        if (const std::optional<TargetTrialCounts> e = estimate(cover.firstColourBalls(), terr, cap_factor, gap_factor))
+          return *e;
+      }
       if (covers_.size() >= kCachedCovers)
         covers_.pop_back();
       covers_.push_front({terr, cap_factor, CoverOutput{}});
-      coverWithBalls(in_, params_, terr, covers_.front().cover);
+      cover.finish(covers_.front().cover);
       ++passes_;
     }
     else
@@ -108,20 +140,29 @@ public:
     for (const CoverBall& b : cached.balls)
       c.below_cap += b.radius < cap * (1.0 - 1e-9) ? 1 : 0;
     trial_ = cached;
+    trial_terr_ = terr;
+    trial_cap_ = cap_factor;
+    trial_gap_factor_ = gap_factor;
     trial_gap_ = gap_factor * in_.neighborhood_radius;
-    c.gap_points = fillGaps(in_, params_, terr, trial_gap_, trial_);
+    c.gap_points = trial_gap_points_ = fillGaps(in_, params_, terr, trial_gap_, trial_);
     c.balls = trial_.balls.size();
     model_ = CoverSizeModel(cached.balls, cap, c.gap_points);
+    model_scale_ = 1.0;
     model_terr_ = terr;
-    progress_(++trials_);
+    if (cached.first_colour_balls > 0)
+      calibration_ = Calibration{cap_factor, gap_factor,
+                                 static_cast<double>(cached.balls.size()) / static_cast<double>(cached.first_colour_balls),
+                                 c.gap_points, cached.first_colour_balls};
     return c;
   }
   /// With the relaxation on, the trial's top-up is only counted here (the kept trial is relaxed and
   /// topped up again: relaxKept) and made by finishKept when the relaxed result is not used. The
   /// count is the one fillToCount would add: the points asked for, up to the covered points that
-  /// are not output points already.
+  /// are not output points already. An estimated trial adds none.
   std::size_t topUp(std::size_t points) override
   {
+    if (trial_estimated_)
+      return 0;
     if (!params_.relax_representatives)
       return fillToCount(in_, params_, model_terr_, points, trial_);
     std::size_t covered = 0, centres = 0;
@@ -134,33 +175,85 @@ public:
   }
   void keepLast() override
   {
+    kept_estimate_.reset();
+    if (trial_estimated_)
+    {
+      kept_estimate_ = Settings{trial_terr_, trial_cap_, trial_gap_factor_};
+      return;
+    }
     std::swap(best_, trial_);
     kept_cover_ = covers_.front().cover;
-    kept_terr_ = model_terr_;
-    kept_gap_ = trial_gap_;
+    kept_ = Settings{trial_terr_, trial_cap_, trial_gap_factor_};
+    kept_balls_ = best_.balls.size();
+    kept_gap_points_ = trial_gap_points_;
     kept_top_up_ = std::exchange(trial_top_up_, 0);
+    kept_valid_ = true;
+  }
+  /// When the search kept an estimated trial (it ended short of the size, an estimate the
+  /// closest), that trial as a whole cover, topped up by at most `top_up` of the balls wanted
+  /// when short of them; kept, and `found` updated, when it is closer to the target than the
+  /// whole cover kept before it (else `found` goes back to that one).
+  void confirmKept(const TargetSearchSetup& setup, TargetSearchResult& found)
+  {
+    if (!kept_estimate_)
+      return;
+    const Settings e = *kept_estimate_;
+    const double before = kept_valid_ ? std::abs(static_cast<double>(setup.fixed_points + kept_balls_ + kept_top_up_) - setup.target)
+                                      : std::numeric_limits<double>::infinity();
+    confirming_ = true;
+    TargetTrialCounts c = count(e.terr, e.cap, e.gap);
+    confirming_ = false;
+    std::size_t topped = 0;
+    const double shortfall = std::round(balls_wanted_) - static_cast<double>(c.balls);
+    if (shortfall >= 1.0 && shortfall <= setup.top_up * balls_wanted_)
+      topped = topUp(static_cast<std::size_t>(shortfall));
+    const double distance = std::abs(static_cast<double>(setup.fixed_points + c.balls + topped) - setup.target);
+    ++found.trials;
+    if (distance < before)
+    {
+      keepLast();
+      found.terr = e.terr;
+      found.cap_factor = e.cap;
+      found.gap_factor = e.gap;
+      found.gap_points = c.gap_points;
+      found.top_up_points = topped;
+      found.output_points = setup.fixed_points + c.balls + topped;
+      found.reached = distance <= 0.01 * setup.target;
+    }
+    else
+    {
+      kept_estimate_.reset();
+      found.terr = kept_.terr;
+      found.cap_factor = kept_.cap;
+      found.gap_factor = kept_.gap;
+      found.gap_points = kept_gap_points_;
+      found.top_up_points = kept_top_up_;
+      found.output_points = setup.fixed_points + kept_balls_ + kept_top_up_;
+      found.reached = before <= 0.01 * setup.target;
+    }
   }
   /// The kept trial's top-up, when topUp only counted it; returns the points added.
   std::size_t finishKept()
   {
-    return kept_top_up_ > 0 ? fillToCount(in_, params_, kept_terr_, std::exchange(kept_top_up_, 0), best_) : 0;
+    return kept_top_up_ > 0 ? fillToCount(in_, keptParams(), kept_.terr, std::exchange(kept_top_up_, 0), best_) : 0;
   }
   /// The kept trial again with its representatives relaxed (stages/representative_relax.h): its
   /// cover, relaxed, then its gap bound, then topped up (fillToCount) to `balls_wanted` balls when
   /// short of them. Returns the gap points and the points topped up.
   std::pair<std::size_t, std::size_t> relaxKept(std::size_t balls_wanted, CoverOutput& relaxed) const
   {
+    const Parameters p = keptParams();
     relaxed = kept_cover_;
-    relaxRepresentatives(in_, params_, relaxed);
-    const std::size_t gaps = fillGaps(in_, params_, kept_terr_, kept_gap_, relaxed);
+    relaxRepresentatives(in_, p, relaxed);
+    const std::size_t gaps = fillGaps(in_, p, kept_.terr, kept_.gap * in_.neighborhood_radius, relaxed);
     const std::size_t short_of = balls_wanted > relaxed.balls.size() ? balls_wanted - relaxed.balls.size() : 0;
-    return {gaps, short_of > 0 ? fillToCount(in_, params_, kept_terr_, short_of, relaxed) : 0};
+    return {gaps, short_of > 0 ? fillToCount(in_, p, kept_.terr, short_of, relaxed) : 0};
   }
   double predictCount(double terr) const override
   {
     if (model_.balls() == 0 || !(terr > 0.0))
       return std::numeric_limits<double>::quiet_NaN();
-    return model_.count(terr / model_terr_);
+    return model_scale_ * model_.count(terr / model_terr_);
   }
   bool keepsCover(double terr, double cap_factor) const override
   {
@@ -168,6 +261,7 @@ public:
                        [&](const CachedCover& c) { return c.terr == terr && c.cap == cap_factor; });
   }
   int coverPasses() const { return passes_; }
+  int estimatedTrials() const { return estimates_; }
 
 private:
   struct CachedCover
@@ -175,20 +269,83 @@ private:
     double terr, cap;
     CoverOutput cover;
   };
+  struct Settings
+  {
+    double terr = 0.0, cap = 0.0, gap = 0.0;  // cap and gap bound in neighbourhood radii
+  };
+  /// The last whole cover's balls over its first colour's, its gap points and first-colour balls,
+  /// at its cap and gap bound.
+  struct Calibration
+  {
+    double cap, gap, multiple;
+    std::size_t gap_points, first_colour_balls;
+  };
+
+  /// Whether a trial at this cap and gap bound may be estimated: a whole cover there calibrates it.
+  bool mayEstimate(double cap_factor, double gap_factor) const
+  {
+    return !confirming_ && calibration_ && calibration_->cap == cap_factor && calibration_->gap == gap_factor &&
+           calibration_->first_colour_balls >= kLeastFirstColourBalls && balls_wanted_ > 0.0;
+  }
+  /// The trial at (terr, cap_factor, gap_factor) estimated from the balls of its first colour
+  /// (mayEstimate), when the estimate lies outside the band (kEstimateBand); nothing otherwise.
+  std::optional<TargetTrialCounts> estimate(const std::vector<CoverBall>& sample, double terr, double cap_factor,
+                                            double gap_factor)
+  {
+    const double first = static_cast<double>(sample.size());
+    const double ratio = calibration_->multiple;
+    const double gaps = static_cast<double>(calibration_->gap_points);
+    const double balls = ratio * first + gaps;
+    const double band = std::max(kEstimateBand, 4.0 / std::sqrt(std::max(first, 1.0)));
+    if (std::abs(balls - balls_wanted_) <= band * balls_wanted_)
+      return std::nullopt;
+    const double cap = cap_factor * in_.neighborhood_radius;
+    std::size_t below = 0;
+    for (const CoverBall& b : sample)
+      below += b.radius < cap * (1.0 - 1e-9) ? 1 : 0;
+    TargetTrialCounts c;
+    c.balls = static_cast<std::size_t>(std::llround(balls));
+    c.gap_points = calibration_->gap_points;
+    c.below_cap = static_cast<std::size_t>(std::llround(ratio * static_cast<double>(below)));
+    model_ = CoverSizeModel(sample, cap, static_cast<std::size_t>(std::llround(gaps / ratio)));
+    model_scale_ = ratio;
+    model_terr_ = terr;
+    trial_estimated_ = true;
+    ++estimates_;
+    trial_terr_ = terr;
+    trial_cap_ = cap_factor;
+    trial_gap_factor_ = gap_factor;
+    return c;
+  }
+  Parameters keptParams() const
+  {
+    Parameters p = params_;
+    p.radius_cap_factor = kept_.cap;
+    return p;
+  }
+
   static constexpr std::size_t kCachedCovers = 3;
   const CoverInput& in_;
   Parameters params_;  // radius_cap_factor follows the trial
+  const double balls_wanted_;
   CoverOutput& best_;
   std::function<void(int)> progress_;
   std::list<CachedCover> covers_;  // most recent first
-  CoverOutput trial_;
-  double trial_gap_ = 0.0;
-  CoverOutput kept_cover_;  // the kept trial's cover before its gap bound, its T and gap bound
-  double kept_terr_ = 0.0, kept_gap_ = 0.0;
+  CoverOutput trial_;              // the last whole trial, after its gap bound
+  bool trial_estimated_ = false;   // the last trial was an estimate
+  double trial_terr_ = 0.0, trial_cap_ = 0.0, trial_gap_factor_ = 0.0, trial_gap_ = 0.0;
+  std::optional<Calibration> calibration_;
+  CoverOutput kept_cover_;  // the kept whole trial's cover before its gap bound, and its settings
+  Settings kept_;
+  bool kept_valid_ = false;
+  std::size_t trial_gap_points_ = 0, kept_balls_ = 0, kept_gap_points_ = 0;
+  std::optional<Settings> kept_estimate_;  // the search kept an estimated trial last
+  bool confirming_ = false;
   std::size_t trial_top_up_ = 0, kept_top_up_ = 0;  // top-ups counted, not made yet (topUp)
-  CoverSizeModel model_;  // the last trial's, at T = model_terr_
+  CoverSizeModel model_;  // the last trial's, at T = model_terr_, its counts times model_scale_
+  double model_scale_ = 1.0;
   double model_terr_ = 0.0;
-  int trials_ = 0, passes_ = 0;
+  int trials_ = 0, passes_ = 0, estimates_ = 0;
 };
 }  // namespace
 
@@ -402,9 +559,10 @@ void coverToTargetSize(const CoverInput& all_features, const Parameters& params,
   // The gap bound, in neighbourhood radii: target_gap_factor × the cap the target implies.
   setup.gap_ratio = params.target_radius_cap > 0.0 ? params.target_gap_factor : params.max_gap_factor;
   setup.top_up = kTargetTopUp;
-  CoverCounter counter(in, cover_params, out.cover,
+  CoverCounter counter(in, cover_params, balls_wanted, out.cover,
                        [&](int trials) { report("cover", std::min(1.0, trials / 40.0)); });
-  const TargetSearchResult found = searchTargetSize(setup, counter);
+  TargetSearchResult found = searchTargetSize(setup, counter);
+  counter.confirmKept(setup, found);
   s.error_threshold = found.terr;
   s.radius_cap_factor = found.cap_factor;
   s.gap_points = found.gap_points;
@@ -432,6 +590,7 @@ void coverToTargetSize(const CoverInput& all_features, const Parameters& params,
   s.max_gap = found.gap_factor * s.neighborhood_radius;
   s.target_iterations = found.trials;
   s.cover_passes = counter.coverPasses();
+  s.estimated_trials = counter.estimatedTrials();
 }
 
 /// Every point's deviation from the output's surface, in the summary; with a bound, points added

@@ -250,7 +250,8 @@ nlohmann::json runStatsJson(const Summary& s, const Parameters& p, double target
                  {"gap_points", s.gap_points},
                  {"size_points", s.size_points},
                  {"target_iterations", s.target_iterations},
-                 {"cover_passes", s.cover_passes}};
+                 {"cover_passes", s.cover_passes},
+                 {"estimated_trials", s.estimated_trials}};
   if (s.target_size > 0)
     j["target"] = {{"size", s.target_size}, {"reached", s.target_reached}, {"closest_size", s.output_points}};
   j["target_reached"] = s.target_reached;

@@ -85,7 +85,8 @@ struct Summary
   double max_deviation = 0;          ///< the deviation bound held (input units; 0: none asked for)
   std::size_t deviation_points = 0;  ///< of the balls, those of radius 0 added to hold it
   int target_iterations = 0;         ///< trials of the target-size search (T, cap, gap bound)
-  int cover_passes = 0;              ///< of those, the ones that ran the cover (others reused it)
+  int cover_passes = 0;              ///< of those, the ones that ran the whole cover (others reused it)
+  int estimated_trials = 0;          ///< of those, the ones estimated from the cover's first colour (ColourCover)
   std::size_t target_size = 0;       ///< the size asked for (0: T_err mode)
   /// false when a target size was asked for and the output is not within 1% of it: the closest
   /// size the method reaches (every point a feature or its own ball, or the fewest balls the

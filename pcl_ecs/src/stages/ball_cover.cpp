@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <optional>
 
 #ifdef __SSE2__
@@ -447,22 +448,21 @@ CellOrder cellOrder(const CoverInput& in, const Parameters& params, double cap, 
   return order;
 }
 
-/// The balls of every cell, colour after colour (cells of one colour in parallel). Ball keys
-/// while running: cell index << 32 | index in the cell; `owner` holds them.
-std::vector<std::vector<CoverBall>> coverCells(const CoverInput& in, const Parameters& params, double error_threshold,
-                                               double cap, const CellOrder& order, int threads,
-                                               std::vector<std::int64_t>& owner)
+/// The balls of the cells of colours [from, to), colour after colour (cells of one colour in
+/// parallel), added to `cell_balls`. Ball keys while running: cell index << 32 | index in the
+/// cell; `owner` holds them.
+void coverCells(const CoverInput& in, const Parameters& params, double error_threshold, double cap,
+                const CellOrder& order, int threads, int from, int to, std::vector<std::int64_t>& owner,
+                std::vector<std::vector<CoverBall>>& cell_balls)
 {
   const std::vector<std::size_t>& cell_begin = order.cell_begin;
   const std::vector<std::size_t>& colour_begin = order.colour_begin;
   const auto& entries = order.entries;
-  std::vector<std::vector<CoverBall>> cell_balls(order.cells);
   // A cell's first guess: the geometric mean of the base-tolerance radii of the balls of the
   // colours before (known and fixed before the colour starts: the same whatever the threads).
-  double start_radius = in.neighborhood_radius;
   double log_sum = 0.0;
   std::size_t log_count = 0;
-  for (int col = 0; col < 8; ++col)
+  for (int col = 0; col < to; ++col)
   {
     if (col > 0)
     {
@@ -474,9 +474,10 @@ std::vector<std::vector<CoverBall>> coverCells(const CoverInput& in, const Param
             log_sum += std::log(b.radius / toleranceClassScale(b.tolerance, error_threshold));
             ++log_count;
           }
-      if (log_count > 0)
-        start_radius = std::exp(log_sum / static_cast<double>(log_count));
     }
+    if (col < from)
+      continue;
+    const double start_radius = log_count > 0 ? std::exp(log_sum / static_cast<double>(log_count)) : in.neighborhood_radius;
     const std::ptrdiff_t first = static_cast<std::ptrdiff_t>(colour_begin[static_cast<std::size_t>(col)]);
     const std::ptrdiff_t last = static_cast<std::ptrdiff_t>(colour_begin[static_cast<std::size_t>(col) + 1]);
 #pragma omp parallel num_threads(threads)
@@ -499,47 +500,101 @@ std::vector<std::vector<CoverBall>> coverCells(const CoverInput& in, const Param
       }
     }
   }
-
-  return cell_balls;
 }
+
+constexpr std::int64_t kPreCovered = std::numeric_limits<std::int64_t>::max();
 }  // namespace
 
-void coverWithBalls(const CoverInput& in, const Parameters& params, double error_threshold,
-                    CoverOutput& out)
+struct ColourCover::State
 {
+  State(const CoverInput& in_, const Parameters& params_, double error_threshold_)
+    : in(in_), params(params_), error_threshold(error_threshold_)
+  {
+  }
+  const CoverInput& in;
+  Parameters params;
+  double error_threshold;
+  double cap = 0.0;
+  int threads = 1;
+  bool any_centre = false;
+  int colours_done = 0;
+  CellOrder order;
+  std::vector<std::int64_t> owner;
+  std::vector<std::vector<CoverBall>> cell_balls;
+};
+
+ColourCover::ColourCover(const CoverInput& in, const Parameters& params, double error_threshold)
+  : state_(std::make_unique<State>(in, params, error_threshold))
+{
+  State& st = *state_;
   const std::size_t n = in.cloud.size();
-  out = CoverOutput{};
-  out.owner.assign(n, -1);
-  const double cap = std::max(params.radius_cap_factor * in.neighborhood_radius, 0.0);
-  const int threads = resolveThreads(params.threads);
-  const auto count = static_cast<std::ptrdiff_t>(n);
+  st.cap = std::max(params.radius_cap_factor * in.neighborhood_radius, 0.0);
+  st.threads = resolveThreads(params.threads);
   // The centres (step 3): the non-feature points allowed to start a ball, and their box.
   Eigen::Vector3d lo, hi;
-  if (!centreBox(in, threads, lo, hi))
-    return;  // no centre
-  const CellOrder order = cellOrder(in, params, cap, lo, hi, threads);
-  const std::size_t cells = order.cells;
-  std::vector<std::int64_t> owner(n, -1);
-  constexpr std::int64_t kPreCovered = std::numeric_limits<std::int64_t>::max();
+  st.any_centre = centreBox(in, st.threads, lo, hi);
+  if (!st.any_centre)
+    return;
+  st.order = cellOrder(in, params, st.cap, lo, hi, st.threads);
+  st.owner.assign(n, -1);
   if (in.pre_covered)
     for (std::size_t i = 0; i < n; ++i)
       if ((*in.pre_covered)[i])
-        owner[i] = kPreCovered;
-  std::vector<std::vector<CoverBall>> cell_balls = coverCells(in, params, error_threshold, cap, order, threads, owner);
+        st.owner[i] = kPreCovered;
+  st.cell_balls.resize(st.order.cells);
+}
 
+ColourCover::~ColourCover() = default;
+ColourCover::ColourCover(ColourCover&&) noexcept = default;
+ColourCover& ColourCover::operator=(ColourCover&&) noexcept = default;
+
+void ColourCover::run(int colours)
+{
+  State& st = *state_;
+  colours = std::min(8, colours);
+  if (st.any_centre && colours > st.colours_done)
+    coverCells(st.in, st.params, st.error_threshold, st.cap, st.order, st.threads, st.colours_done, colours, st.owner,
+               st.cell_balls);
+  st.colours_done = std::max(st.colours_done, colours);
+}
+
+std::vector<CoverBall> ColourCover::firstColourBalls() const
+{
+  const State& st = *state_;
+  std::vector<CoverBall> balls;
+  if (!st.any_centre || st.colours_done < 1)
+    return balls;
+  for (std::size_t k = 0; k < st.order.colour_begin[1]; ++k)
+    balls.insert(balls.end(), st.cell_balls[k].begin(), st.cell_balls[k].end());
+  return balls;
+}
+
+void ColourCover::finish(CoverOutput& out)
+{
+  run(8);
+  State& st = *state_;
+  const std::size_t n = st.in.cloud.size();
+  out = CoverOutput{};
+  out.owner.assign(n, -1);
+  if (!st.any_centre)
+    return;  // no centre
   // Canonical ball numbering: by cell (colour-major), then by order within the cell.
+  const std::size_t cells = st.order.cells;
   std::vector<std::size_t> first_id(cells + 1, 0);
   for (std::size_t k = 0; k < cells; ++k)
-    first_id[k + 1] = first_id[k] + cell_balls[k].size();
+    first_id[k + 1] = first_id[k] + st.cell_balls[k].size();
   out.balls.reserve(first_id[cells]);
+  out.first_colour_balls = first_id[st.order.colour_begin[1]];
   for (std::size_t k = 0; k < cells; ++k)
-    for (CoverBall& b : cell_balls[k])
+    for (CoverBall& b : st.cell_balls[k])
     {
       out.max_error = std::max(out.max_error, b.error);
       out.radius_evaluations += b.evaluations;
       out.balls.push_back(std::move(b));
     }
-#pragma omp parallel for schedule(static) num_threads(threads)
+  const auto count = static_cast<std::ptrdiff_t>(n);
+  const std::vector<std::int64_t>& owner = st.owner;
+#pragma omp parallel for schedule(static) num_threads(st.threads)
   for (std::ptrdiff_t ii = 0; ii < count; ++ii)
   {
     const auto i = static_cast<std::size_t>(ii);
@@ -547,6 +602,13 @@ void coverWithBalls(const CoverInput& in, const Parameters& params, double error
       out.owner[i] = static_cast<int>(first_id[static_cast<std::size_t>(owner[i] >> 32)] +
                                       static_cast<std::size_t>(owner[i] & 0xFFFFFFFF));
   }
+  state_.reset();
+}
+
+void coverWithBalls(const CoverInput& in, const Parameters& params, double error_threshold,
+                    CoverOutput& out)
+{
+  ColourCover(in, params, error_threshold).finish(out);
 }
 
 }  // namespace pcl_ecs

@@ -28,6 +28,7 @@
 #include <pcl_ecs/types.h>
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -165,11 +166,39 @@ struct CoverOutput
   std::vector<int> owner;
   double max_error = 0.0;
   std::size_t radius_evaluations = 0;
+  /// balls[0, first_colour_balls) are the balls of the cells of the first colour (see above)
+  std::size_t first_colour_balls = 0;
 };
 
 /** \brief Run steps 2-7 with tolerance `error_threshold` and the other settings of `params`
  * (error_form, adaptive, adaptive_factor, radius_cap_factor, seed, threads). */
 void coverWithBalls(const CoverInput& in, const Parameters& params, double error_threshold,
                     CoverOutput& out);
+
+/** \brief The same cover, run a colour at a time: `run(1)` makes the balls of the cells of the
+ * first colour alone, the same in every respect as coverWithBalls's (that colour runs first and
+ * reads nothing the others make), at a fraction of its cost; `finish` runs the other colours and
+ * gives exactly coverWithBalls's output. Those cells are one in eight, spread evenly over the
+ * cloud, so the whole cover's size is close to a fixed multiple of theirs: the target-size
+ * search's cheap trials (simplify_core.cpp) run the first colour, and finish it only when the
+ * trial is worth a whole cover. `in` must outlive the object. */
+class ColourCover
+{
+public:
+  ColourCover(const CoverInput& in, const Parameters& params, double error_threshold);
+  ~ColourCover();
+  ColourCover(ColourCover&&) noexcept;
+  ColourCover& operator=(ColourCover&&) noexcept;
+  /// Runs the colours up to `colours` (1-8) not run yet.
+  void run(int colours);
+  /// The balls of the first colour (after run(1)), in coverWithBalls's order.
+  std::vector<CoverBall> firstColourBalls() const;
+  /// Runs the remaining colours and moves the cover into `out`; the object is spent.
+  void finish(CoverOutput& out);
+
+private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
 
 }  // namespace pcl_ecs
