@@ -133,7 +133,8 @@ def main():
             # keeps every feature point, so its output is larger where the target thinned them).
             thinning = ["--feature-spacing", repr(p["feature-spacing-used"])] if p.get("feature-spacing-used") else []
             row = {"input": name, "points": c["finite_points"], "ratio": ratio, "target": target, "size": size,
-                   "cover_passes": c["cover_passes"], "target_iterations": c["target_iterations"],
+                   "cover_passes": c["cover_passes"], "estimated_trials": c.get("estimated_trials", 0),
+                   "target_iterations": c["target_iterations"],
                    "size_points": c.get("size_points", 0)}
             stream_out = os.path.join(work, "stream.pcd")
             (row["target_ratio_s"], row["target_size_s"], row["terr_s"], row["stream_s"]) = least_walls([
