@@ -140,7 +140,7 @@ public:
     else
       covers_.splice(covers_.begin(), covers_, hit);
     const CoverOutput& cached = covers_.front().cover;
-    trial_top_up_ = 0;
+    trial_top_up_ = trial_topped_ = 0;
     TargetTrialCounts c;
     for (const CoverBall& b : cached.balls)
       c.below_cap += b.radius < cap * (1.0 - 1e-9) ? 1 : 0;
@@ -169,14 +169,14 @@ public:
     if (trial_estimated_)
       return 0;
     if (!params_.relax_representatives)
-      return fillToCount(in_, params_, model_terr_, points, trial_);
+      return trial_topped_ = fillToCount(in_, params_, model_terr_, points, trial_);
     std::size_t covered = 0, centres = 0;
     for (const int o : trial_.owner)
       covered += o >= 0 ? 1 : 0;
     for (const CoverBall& b : trial_.balls)
       centres += b.used_centre ? 1 : 0;
     trial_top_up_ = std::min(points, covered > centres ? covered - centres : 0);
-    return trial_top_up_;
+    return trial_topped_ = trial_top_up_;
   }
   void keepLast() override
   {
@@ -192,6 +192,7 @@ public:
     kept_balls_ = best_.balls.size();
     kept_gap_points_ = trial_gap_points_;
     kept_top_up_ = std::exchange(trial_top_up_, 0);
+    kept_topped_ = std::exchange(trial_topped_, 0);
     kept_valid_ = true;
   }
   /// When the search kept an estimated trial (it ended short of the size, an estimate the
@@ -232,7 +233,7 @@ public:
       found.cap_factor = kept_.cap;
       found.gap_factor = kept_.gap;
       found.gap_points = kept_gap_points_;
-      found.top_up_points = kept_top_up_;
+      found.top_up_points = kept_topped_;
       found.output_points = setup.fixed_points + kept_balls_ + kept_top_up_;
       found.reached = before <= 0.01 * setup.target;
     }
@@ -347,6 +348,9 @@ private:
   std::optional<Settings> kept_estimate_;  // the search kept an estimated trial last
   bool confirming_ = false;
   std::size_t trial_top_up_ = 0, kept_top_up_ = 0;  // top-ups counted, not made yet (topUp)
+  // The points topUp added or counted for the last whole trial and the kept one (with the
+  // relaxation off they are in its balls already; with it on, they are the counts above).
+  std::size_t trial_topped_ = 0, kept_topped_ = 0;
   CoverSizeModel model_;  // the last trial's, at T = model_terr_, its counts times model_scale_
   double model_scale_ = 1.0;
   double model_terr_ = 0.0;
