@@ -17,6 +17,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <stdexcept>
 
 using namespace pcl_ecs_test;
 
@@ -277,6 +278,8 @@ TEST(BallCover, TheFirstColourIsThePrefixOfTheCoverAndFinishingItIsTheCover)
     }
     EXPECT_EQ(differ, 0u);
     EXPECT_EQ(finished.max_error, whole.out.max_error);
+    EXPECT_THROW(partial.run(2), std::logic_error);
+    EXPECT_THROW(partial.finish(finished), std::logic_error);
   }
   // The multiple (whole cover ÷ first colour) on a sphere at cap 2: near 8 / (1 + something) and
   // falling as the balls grow to the cap and reach past their cells; steady once they are there.

@@ -17,6 +17,7 @@
 #include <limits>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 
 #ifdef __SSE2__
 #include <emmintrin.h>
@@ -548,9 +549,16 @@ ColourCover::~ColourCover() = default;
 ColourCover::ColourCover(ColourCover&&) noexcept = default;
 ColourCover& ColourCover::operator=(ColourCover&&) noexcept = default;
 
+ColourCover::State& ColourCover::state() const
+{
+  if (!state_)
+    throw std::logic_error("pcl_ecs::ColourCover: used after finish()");
+  return *state_;
+}
+
 void ColourCover::run(int colours)
 {
-  State& st = *state_;
+  State& st = state();
   colours = std::min(8, colours);
   if (st.any_centre && colours > st.colours_done)
     coverCells(st.in, st.params, st.error_threshold, st.cap, st.order, st.threads, st.colours_done, colours, st.owner,
@@ -560,7 +568,7 @@ void ColourCover::run(int colours)
 
 std::vector<CoverBall> ColourCover::firstColourBalls() const
 {
-  const State& st = *state_;
+  const State& st = state();
   std::vector<CoverBall> balls;
   if (!st.any_centre || st.colours_done < 1)
     return balls;
@@ -572,7 +580,7 @@ std::vector<CoverBall> ColourCover::firstColourBalls() const
 void ColourCover::finish(CoverOutput& out)
 {
   run(8);
-  State& st = *state_;
+  State& st = state();
   const std::size_t n = st.in.cloud.size();
   out = CoverOutput{};
   out.owner.assign(n, -1);

@@ -193,11 +193,13 @@ public:
   void run(int colours);
   /// The balls of the first colour (after run(1)), in coverWithBalls's order.
   std::vector<CoverBall> firstColourBalls() const;
-  /// Runs the remaining colours and moves the cover into `out`; the object is spent.
+  /// Runs the remaining colours and moves the cover into `out`; the object is spent (any further
+  /// call throws std::logic_error).
   void finish(CoverOutput& out);
 
 private:
   struct State;
+  State& state() const;
   std::unique_ptr<State> state_;
 };
 
