@@ -67,8 +67,8 @@ std::size_t runCover(const CoverInput& in, const Parameters& params, double terr
   return out.balls.size();
 }
 
-/// A trial whose first-colour estimate (CoverCounter) is farther than this fraction of the balls
-/// wanted from them, and than 4 / sqrt(the first colour's balls), is not run as a whole cover.
+/// A trial whose first-colour estimate (CoverCounter) is farther from the balls wanted than this
+/// fraction of them (or 4 / sqrt(the first colour's balls), when larger) is not run as a whole cover.
 /// The whole cover's balls are a multiple of the first colour's that depends on how far those
 /// balls reach past their cells (side 2 × cap): about 8 for balls far below the cap, 4.4-6.9 for
 /// balls at it on the shared scans, so it holds best between trials of similar ball sizes
@@ -86,7 +86,7 @@ std::size_t runCover(const CoverInput& in, const Parameters& params, double terr
 constexpr double kEstimateBand = 0.04;
 /// No trial is estimated from a whole cover with fewer first-colour balls than this: below it the
 /// multiple moves by more than the band from the saturated first cover to the next (room scan at
-/// 10%: 7.69 with about 300 first-colour balls at the cap, 6.83 once most are below it; the
+/// 10%: 7.69 with about 250 first-colour balls at the cap, 6.83 once most are below it; the
 /// estimate misled the search into two more covers). 1,500 kept the gain on two runs of the 60.
 constexpr std::size_t kLeastFirstColourBalls = 500;
 
@@ -95,8 +95,8 @@ constexpr std::size_t kLeastFirstColourBalls = 500;
 /// that only widens the gap bound, or comes back to a T it tried at this cap, reuses the cover and
 /// redoes only the gap bound (the same result as running it again). Its prediction is the last
 /// trial's CoverSizeModel (stages/cover_size_model.h).
-/// A trial far from the size wanted is estimated instead (ColourCover::run(1): about a fifth of a
-/// cover's time): its first colour's balls times the multiple the last whole cover at the same
+/// A trial far from the size wanted is estimated instead (ColourCover::run(1): a quarter to a third
+/// of a cover's time, the cells' order included): its first colour's balls times the multiple the last whole cover at the same
 /// cap and gap bound had, plus that cover's gap points. A trial whose estimate comes within the
 /// band above, and every trial the search keeps at the end (confirmKept), is a whole cover, so
 /// the result is the plain run at the settings the search settled on (tested).
