@@ -142,18 +142,13 @@ public:
     const CoverOutput& cached = covers_.front().cover;
     trial_top_up_ = trial_topped_ = 0;
     TargetTrialCounts c;
-    for (const CoverBall& b : cached.balls)
-      c.below_cap += b.radius < cap * (1.0 - 1e-9) ? 1 : 0;
+    c.below_cap = belowCap(cached.balls, cap);
     trial_ = cached;
-    trial_terr_ = terr;
-    trial_cap_ = cap_factor;
-    trial_gap_factor_ = gap_factor;
-    trial_gap_ = gap_factor * in_.neighborhood_radius;
-    c.gap_points = trial_gap_points_ = fillGaps(in_, params_, terr, trial_gap_, trial_);
+    trial_settings_ = Settings{terr, cap_factor, gap_factor};
+    c.gap_points = trial_gap_points_ = fillGaps(in_, params_, terr, gap_factor * in_.neighborhood_radius, trial_);
     c.balls = trial_.balls.size();
     model_ = CoverSizeModel(cached.balls, cap, c.gap_points);
     model_scale_ = 1.0;
-    model_terr_ = terr;
     if (cached.first_colour_balls > 0)
       calibration_ = Calibration{cap_factor, gap_factor,
                                  static_cast<double>(cached.balls.size()) / static_cast<double>(cached.first_colour_balls),
@@ -169,7 +164,7 @@ public:
     if (trial_estimated_)
       return 0;
     if (!params_.relax_representatives)
-      return trial_topped_ = fillToCount(in_, params_, model_terr_, points, trial_);
+      return trial_topped_ = fillToCount(in_, params_, trial_settings_.terr, points, trial_);
     std::size_t covered = 0, centres = 0;
     for (const int o : trial_.owner)
       covered += o >= 0 ? 1 : 0;
@@ -183,13 +178,12 @@ public:
     kept_estimate_.reset();
     if (trial_estimated_)
     {
-      kept_estimate_ = Settings{trial_terr_, trial_cap_, trial_gap_factor_};
+      kept_estimate_ = trial_settings_;
       return;
     }
     std::swap(best_, trial_);
     kept_cover_ = covers_.front().cover;
-    kept_ = Settings{trial_terr_, trial_cap_, trial_gap_factor_};
-    kept_balls_ = best_.balls.size();
+    kept_ = trial_settings_;
     kept_gap_points_ = trial_gap_points_;
     kept_top_up_ = std::exchange(trial_top_up_, 0);
     kept_topped_ = std::exchange(trial_topped_, 0);
@@ -204,7 +198,9 @@ public:
     if (!kept_estimate_)
       return;
     const Settings e = *kept_estimate_;
-    const double before = kept_valid_ ? std::abs(static_cast<double>(setup.fixed_points + kept_balls_ + kept_top_up_) - setup.target)
+    // The whole trial kept before, as the search counted it (best_ holds it until keepLast).
+    const std::size_t kept_output = setup.fixed_points + best_.balls.size() + kept_top_up_;
+    const double before = kept_valid_ ? std::abs(static_cast<double>(kept_output) - setup.target)
                                       : std::numeric_limits<double>::infinity();
     confirming_ = true;
     TargetTrialCounts c = count(e.terr, e.cap, e.gap);
@@ -234,7 +230,7 @@ public:
       found.gap_factor = kept_.gap;
       found.gap_points = kept_gap_points_;
       found.top_up_points = kept_topped_;
-      found.output_points = setup.fixed_points + kept_balls_ + kept_top_up_;
+      found.output_points = kept_output;
       found.reached = before <= 0.01 * setup.target;
     }
   }
@@ -259,7 +255,7 @@ public:
   {
     if (model_.balls() == 0 || !(terr > 0.0))
       return std::numeric_limits<double>::quiet_NaN();
-    return model_scale_ * model_.count(terr / model_terr_);
+    return model_scale_ * model_.count(terr / trial_settings_.terr);
   }
   bool keepsCover(double terr, double cap_factor) const override
   {
@@ -306,22 +302,24 @@ private:
     if (std::abs(balls - balls_wanted_) <= band * balls_wanted_)
       return std::nullopt;
     const double cap = cap_factor * in_.neighborhood_radius;
-    std::size_t below = 0;
-    for (const CoverBall& b : sample)
-      below += b.radius < cap * (1.0 - 1e-9) ? 1 : 0;
     TargetTrialCounts c;
     c.balls = static_cast<std::size_t>(std::llround(balls));
     c.gap_points = calibration_->gap_points;
-    c.below_cap = static_cast<std::size_t>(std::llround(ratio * static_cast<double>(below)));
+    c.below_cap = static_cast<std::size_t>(std::llround(ratio * static_cast<double>(belowCap(sample, cap))));
     model_ = CoverSizeModel(sample, cap, static_cast<std::size_t>(std::llround(gaps / ratio)));
     model_scale_ = ratio;
-    model_terr_ = terr;
     trial_estimated_ = true;
     ++estimates_;
-    trial_terr_ = terr;
-    trial_cap_ = cap_factor;
-    trial_gap_factor_ = gap_factor;
+    trial_settings_ = Settings{terr, cap_factor, gap_factor};
     return c;
+  }
+  /// Balls whose radius is below the cap.
+  static std::size_t belowCap(const std::vector<CoverBall>& balls, double cap)
+  {
+    std::size_t below = 0;
+    for (const CoverBall& b : balls)
+      below += b.radius < cap * (1.0 - 1e-9) ? 1 : 0;
+    return below;
   }
   Parameters keptParams() const
   {
@@ -338,22 +336,21 @@ private:
   std::function<void(int)> progress_;
   std::list<CachedCover> covers_;  // most recent first
   CoverOutput trial_;              // the last whole trial, after its gap bound
+  Settings trial_settings_;        // the last trial's (whole or estimated)
   bool trial_estimated_ = false;   // the last trial was an estimate
-  double trial_terr_ = 0.0, trial_cap_ = 0.0, trial_gap_factor_ = 0.0, trial_gap_ = 0.0;
   std::optional<Calibration> calibration_;
   CoverOutput kept_cover_;  // the kept whole trial's cover before its gap bound, and its settings
   Settings kept_;
   bool kept_valid_ = false;
-  std::size_t trial_gap_points_ = 0, kept_balls_ = 0, kept_gap_points_ = 0;
+  std::size_t trial_gap_points_ = 0, kept_gap_points_ = 0;
   std::optional<Settings> kept_estimate_;  // the search kept an estimated trial last
   bool confirming_ = false;
   std::size_t trial_top_up_ = 0, kept_top_up_ = 0;  // top-ups counted, not made yet (topUp)
   // The points topUp added or counted for the last whole trial and the kept one (with the
   // relaxation off they are in its balls already; with it on, they are the counts above).
   std::size_t trial_topped_ = 0, kept_topped_ = 0;
-  CoverSizeModel model_;  // the last trial's, at T = model_terr_, its counts times model_scale_
+  CoverSizeModel model_;  // the last trial's, at its T, its counts times model_scale_
   double model_scale_ = 1.0;
-  double model_terr_ = 0.0;
   int trials_ = 0, passes_ = 0, estimates_ = 0;
 };
 }  // namespace
