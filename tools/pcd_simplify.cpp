@@ -57,7 +57,8 @@ OUTPUT  .pcd (binary by default), .ply, .las or .laz. Every field of the input i
 )";
 
 const char* kOptions = R"(Size instead of T_err:
-  --target-ratio R    aim at R × the finite input points, R in (0, 1]
+  --target-ratio R    aim at R × the distinct finite input points (coincident points count once:
+                      a scan stored twice gives the size it gives once), R in (0, 1]
 
 Scans larger than memory (PCD, LAS or LAZ in and out, PCD binary; docs/STREAMING.md):
   --stream            simplify out of core: the scan is split into tiles (with a halo of
