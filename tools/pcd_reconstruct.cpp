@@ -32,9 +32,9 @@ output of pcd_simplify; on a dense scan, simplify first.
 
 INPUT   .pcd, .ply, .las, .laz or .xyz/.txt/.pts/.asc (x y z, and colour if present). A field
         or LAS extra dimension 'ecs_radius' (pcd_simplify --radii: each point's ball radius, 0
-        where unknown) is used as pcd_simplify --mesh uses it: triangles between balls far from
-        overlapping are refused; a negative or non-finite value is refused as a damaged file
-        (exit 3).
+        for a point kept as it is) is used as pcd_simplify --mesh uses it: triangles between
+        balls far from overlapping are refused, a point of radius 0 judged by its nearest
+        neighbour's ball; a negative or non-finite value is refused as a damaged file (exit 3).
 OUTPUT  .ply (binary), .obj or .vtk, by extension; colour is written to PLY and VTK when the
         input has it. Only the vertices the triangles use are written. Written to a temporary
         file beside OUTPUT and renamed into place on success.
@@ -131,7 +131,7 @@ int run(int argc, char** argv)
       {
         std::ostringstream os;
         os << input_path << ": point " << i << " has ecs_radius " << radius[i]
-           << ": a ball radius is 0 (unknown) or positive and finite";
+           << ": a ball radius is 0 (a point kept as it is) or positive and finite";
         throw ToolError(kExitInput, os.str());
       }
   }

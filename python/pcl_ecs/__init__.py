@@ -156,8 +156,9 @@ def reconstruct(points: Any, radius: Any = None) -> Tuple[np.ndarray, np.ndarray
     into them), manifold and oriented. Raises ValueError when no surface can be made.
 
     `radius`, optional, (N,): the radius of the ball each point stands for (`Result.point_radius`
-    of `simplify`; 0 where unknown). Triangles joining two points whose balls do not overlap
-    (farther apart than 2 × the sum of their radii) are then refused: they cross gaps, such as
-    between a gear's teeth, that the sparse points alone do not show."""
+    of `simplify`; 0 for a point kept as it is, which is judged by its nearest neighbour's ball;
+    NaN where unknown). Triangles joining two points whose balls do not overlap (farther apart
+    than 2 × the sum of their radii) are then refused: they cross gaps, such as between a gear's
+    teeth, that the sparse points alone do not show."""
     return _core._reconstruct(np.ascontiguousarray(np.asarray(points), dtype=np.float64),
                               None if radius is None else np.ascontiguousarray(np.asarray(radius), dtype=np.float64))

@@ -231,16 +231,23 @@ def test_point_radius_is_each_output_points_ball():
 
 
 def test_reconstruct_refuses_triangles_between_balls_that_do_not_overlap():
-    # A sphere whose northern cap (z > 0.5) carries radii of a tenth of the spacing: no Cocone
-    # triangle may join two cap points (2 x the sum of their radii is far below any edge), so the
-    # cap has no triangle of its own; without radii it is meshed like the rest.
+    # A sphere whose northern cap (z > 0.5) carries radii of a tenth of the spacing, the rest none
+    # (NaN: unknown): no Cocone triangle may join two cap points (2 x the sum of their radii is far
+    # below any edge), so the cap has no triangle of its own; without radii it is meshed like the
+    # rest, and the triangles among points of unknown radius are the same.
     pts = fibonacci_sphere(3000)
-    radius = np.where(pts[:, 2] > 0.5, 0.1 * np.sqrt(4 * np.pi / 3000), 0.0)
+    radius = np.where(pts[:, 2] > 0.5, 0.1 * np.sqrt(4 * np.pi / 3000), np.nan)
     _, tri = pcl_ecs.reconstruct(pts, radius=radius)
     _, tri0 = pcl_ecs.reconstruct(pts)
     assert ((radius[tri] > 0).sum(axis=1) < 2).all(), "a triangle with an edge between two cap points"
     assert (radius[tri0] > 0).all(axis=1).sum() > 500
-    assert ((radius[tri] == 0).all(axis=1).sum() == (radius[tri0] == 0).all(axis=1).sum())
+    unknown = np.isnan(radius)
+    assert unknown[tri].all(axis=1).sum() == unknown[tri0].all(axis=1).sum()
+    # A radius of 0 marks a point kept as it is: it takes its nearest ball's radius, so the points
+    # of radius 0 along the cap's rim are not joined to one another as the unknown ones are.
+    rim = np.where(pts[:, 2] > 0.5, radius, 0.0)
+    _, tri_rim = pcl_ecs.reconstruct(pts, radius=rim)
+    assert (rim[tri_rim] == 0).all(axis=1).sum() < unknown[tri].all(axis=1).sum()
     with pytest.raises(ValueError, match="N the number of points"):
         pcl_ecs.reconstruct(pts, radius=radius[:-1])
 

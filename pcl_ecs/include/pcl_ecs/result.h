@@ -121,7 +121,7 @@ struct Result
 /** \brief Per output point, the radius of the ball it stands for; 0 for a feature point and for an
  * input point kept as it is (a ball of radius 0). The sample radii surface::coconeReconstruct and
  * Cocone<PointT>::setSampleRadii take: with them Cocone refuses triangles between balls that do
- * not overlap. */
+ * not overlap, a point of radius 0 judged by the ball of its nearest neighbour that has one. */
 inline std::vector<double> pointRadii(const Result& r)
 {
   std::vector<double> radius(r.labels.size(), 0.0);

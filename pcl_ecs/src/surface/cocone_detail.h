@@ -251,9 +251,15 @@ std::vector<char> regularSamples(const std::vector<Eigen::Vector3d>& points, con
                                  const std::vector<Facet>& facets, const std::vector<double>& radius,
                                  const CoconeParameters& params, CoconeStats& st);
 
+/// The radius each sample is judged by in the ball-overlap rule: its own when positive and finite;
+/// for a sample of radius exactly 0 (a point the filter kept as it is), the radius of its nearest
+/// neighbour across `facets` that has one (ties: the larger); 0 (unknown) otherwise.
+std::vector<double> overlapRadii(const std::vector<Eigen::Vector3d>& points, const std::vector<Facet>& facets,
+                                 const std::vector<double>& sample_radius);
+
 /// The candidate triangles: those accepted by the cocones of all their regular vertices (at least
 /// one), without the ones that span a gap in the sampling or, given `sample_radius` (per point, or
-/// empty), join two balls that do not overlap, in a canonical order. `spacing` gets the local
+/// empty), join two balls that do not overlap (overlapRadii), in a canonical order. `spacing` gets the local
 /// sample spacing per vertex (the median candidate edge length there).
 std::vector<Triangle> candidateTriangles(const std::vector<Eigen::Vector3d>& points, const std::vector<Facet>& facets,
                                          const std::vector<char>& regular, const CoconeParameters& params,

@@ -2,7 +2,9 @@
 // regular samples and the candidate triangles.
 #include "cocone_detail.h"
 
+#include <cmath>
 #include <deque>
+#include <limits>
 
 namespace pcl_ecs
 {
@@ -179,6 +181,43 @@ std::vector<char> regularSamples(const std::vector<Eigen::Vector3d>& points, con
   return regular;
 }
 
+/// The radius each sample is judged by in the ball-overlap rule (kApartBallRatio): its own, or,
+/// for a sample of radius 0 (a feature point, a point the gap bound or the target size kept as it
+/// is), the radius of its nearest Delaunay neighbour that has one (ties: the larger radius), so
+/// that such a point is not a neighbour on the surface of samples far from overlapping the balls
+/// around it. Samples whose radius is not finite, and radius-0 samples with no such neighbour,
+/// stay unknown (0): the gap guard alone judges their triangles. Independent of the facets' order.
+std::vector<double> overlapRadii(const std::vector<Eigen::Vector3d>& points, const std::vector<Facet>& facets,
+                                 const std::vector<double>& sample_radius)
+{
+  auto known = [&](std::uint32_t v) { return std::isfinite(sample_radius[v]) && sample_radius[v] > 0.0; };
+  std::vector<double> radius(sample_radius.size(), 0.0);
+  std::vector<double> nearest(sample_radius.size(), std::numeric_limits<double>::infinity());
+  for (std::size_t v = 0; v < radius.size(); ++v)
+    if (known(static_cast<std::uint32_t>(v)))
+      radius[v] = sample_radius[v];
+  for (const Facet& f : facets)
+    for (int k = 0; k < 3; ++k)
+    {
+      const std::uint32_t v = f.v[k];
+      if (sample_radius[v] != 0.0)
+        continue;
+      for (int j = 1; j < 3; ++j)
+      {
+        const std::uint32_t u = f.v[(k + j) % 3];
+        if (!known(u))
+          continue;
+        const double d2 = (points[u] - points[v]).squaredNorm();
+        if (d2 < nearest[v] || (d2 == nearest[v] && sample_radius[u] > radius[v]))
+        {
+          nearest[v] = d2;
+          radius[v] = sample_radius[u];
+        }
+      }
+    }
+  return radius;
+}
+
 /// The candidate triangles: those accepted by the cocones of all their regular vertices (at least
 /// one), without the ones that span a gap in the sampling or, given each sample's ball radius,
 /// join two balls that do not overlap, in a canonical order. `spacing` gets the local sample
@@ -252,7 +291,8 @@ std::vector<Triangle> candidateTriangles(const std::vector<Eigen::Vector3d>& poi
   if (!sample_radius.empty())
   {
     // Samples whose balls do not overlap are not neighbours on the surface (kApartBallRatio).
-    auto known = [&](std::uint32_t v) { return std::isfinite(sample_radius[v]) && sample_radius[v] > 0.0; };
+    const std::vector<double> radius = overlapRadii(points, facets, sample_radius);
+    auto known = [&](std::uint32_t v) { return radius[v] > 0.0; };
     std::size_t kept = 0;
     for (const Triangle& t : cand)
     {
@@ -261,7 +301,7 @@ std::vector<Triangle> candidateTriangles(const std::vector<Eigen::Vector3d>& poi
       {
         const std::uint32_t a = t[k], b = t[(k + 1) % 3];
         apart = known(a) && known(b) &&
-                (points[a] - points[b]).norm() > kApartBallRatio * (sample_radius[a] + sample_radius[b]);
+                (points[a] - points[b]).norm() > kApartBallRatio * (radius[a] + radius[b]);
       }
       if (apart)
         ++st.apart_triangles;

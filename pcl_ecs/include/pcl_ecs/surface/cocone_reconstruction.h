@@ -55,8 +55,9 @@ public:
   std::size_t getFillHoleEdges() const { return params_.fill_hole_edges; }
 
   /** \brief Per point of the input cloud, the radius of the ball it stands for (pointRadii of a
-   * FeatureAwareCoverSimplify result, whose output cloud is this input; 0 where unknown): triangles
-   * joining two balls far from overlapping are refused (surface::kApartBallRatio). Empty (the
+   * FeatureAwareCoverSimplify result, whose output cloud is this input; 0 for a point kept as it is,
+   * judged by its nearest neighbour's ball; not finite where unknown): triangles joining two balls
+   * far from overlapping are refused (surface::kApartBallRatio). Empty (the
    * default): no radius known. A size other than the input cloud's fails reconstruct(). */
   void setSampleRadii(std::vector<double> radius) { radius_ = std::move(radius); }
   const std::vector<double>& getSampleRadii() const { return radius_; }
