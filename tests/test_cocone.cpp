@@ -850,28 +850,52 @@ TEST(CoconeScan, BunnyIsAManifoldCloseToTheReference)
   EXPECT_LT(d.from_reference_max, 0.01);
 }
 
+namespace
+{
+/// The pinion scan simplified to `percent`% of its points (a target size): the output points,
+/// their ball radii (pointRadii) and the reference mesh; `error` set when the filter failed. False
+/// when the shared data is missing.
+struct SimplifiedPinion
+{
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> radius;
+  pcl_ecs::eval::TriangleMesh reference;
+  std::string error;
+};
+bool simplifiedPinion(std::size_t percent, SimplifiedPinion& s)
+{
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  if (pcl::io::loadPCDFile(pcl_ecs_test::sharedData("pinion_scan.pcd"), *cloud) != 0 ||
+      !loadTriangleMesh(pcl_ecs_test::sharedData("pinion_mesh.ply"), s.reference))
+    return false;
+  pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> f;
+  f.setInputCloud(cloud);
+  f.setTargetSize(cloud->size() * percent / 100);
+  pcl::PointCloud<pcl::PointXYZ> out;
+  f.filter(out);
+  s.error = f.getResult().error;
+  for (const auto& p : out)
+    s.points.emplace_back(p.x, p.y, p.z);
+  s.radius = pcl_ecs::pointRadii(f.getResult());
+  if (s.error.empty() && s.radius.size() != s.points.size())
+    s.error = "pointRadii gives " + std::to_string(s.radius.size()) + " radii for " + std::to_string(s.points.size()) + " points";
+  return true;
+}
+}  // namespace
+
 TEST(CoconeScan, TheSimplifiedGearHasNoTrianglesAcrossItsTeeth)
 {
   // The pinion scan simplified to 10%: between its teeth the sparse representatives of the flanks
   // pass the cocone test across the gaps. Given each point's ball radius (pointRadii), Cocone refuses
   // the triangles joining balls that do not overlap: the mesh lies closer to the reference (its
   // mean distance 0.81 ×, its largest 0.73 × the ones without radii) and stays manifold.
-  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
-  pcl_ecs::eval::TriangleMesh ref;
-  if (pcl::io::loadPCDFile(pcl_ecs_test::sharedData("pinion_scan.pcd"), *cloud) != 0 ||
-      !loadTriangleMesh(pcl_ecs_test::sharedData("pinion_mesh.ply"), ref))
+  SimplifiedPinion s;
+  if (!simplifiedPinion(10, s))
     GTEST_SKIP() << "shared data missing";
-  pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> f;
-  f.setInputCloud(cloud);
-  f.setTargetSize(cloud->size() / 10);
-  pcl::PointCloud<pcl::PointXYZ> out;
-  f.filter(out);
-  ASSERT_TRUE(f.getResult().error.empty()) << f.getResult().error;
-  std::vector<Eigen::Vector3d> pts;
-  for (const auto& p : out)
-    pts.emplace_back(p.x, p.y, p.z);
-  const std::vector<double> radius = pcl_ecs::pointRadii(f.getResult());
-  ASSERT_EQ(radius.size(), pts.size());
+  ASSERT_TRUE(s.error.empty()) << s.error;
+  const auto& pts = s.points;
+  const auto& radius = s.radius;
+  const auto& ref = s.reference;
   const auto plain = coconeReconstruct(pts);
   const auto with = coconeReconstruct(pts, CoconeParameters(), radius);
   ASSERT_TRUE(plain.ok() && with.ok());
@@ -894,21 +918,13 @@ TEST(CoconeScan, TheSimplifiedGearsKeptPointsAreJudgedByTheirNearestBall)
   // radius 0. Left unknown (NaN), the cocones joined them across the gear (triangles of 0.23 L,
   // ten times the median edge); judged by the nearest ball's radius they are not, and the mesh lies
   // closer to the reference: mean 0.76 ×, largest 0.36 × (bounds 0.85 and 0.5), in one piece.
-  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
-  pcl_ecs::eval::TriangleMesh ref;
-  if (pcl::io::loadPCDFile(pcl_ecs_test::sharedData("pinion_scan.pcd"), *cloud) != 0 ||
-      !loadTriangleMesh(pcl_ecs_test::sharedData("pinion_mesh.ply"), ref))
+  SimplifiedPinion s;
+  if (!simplifiedPinion(3, s))
     GTEST_SKIP() << "shared data missing";
-  pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> f;
-  f.setInputCloud(cloud);
-  f.setTargetSize(cloud->size() * 3 / 100);
-  pcl::PointCloud<pcl::PointXYZ> out;
-  f.filter(out);
-  ASSERT_TRUE(f.getResult().error.empty()) << f.getResult().error;
-  std::vector<Eigen::Vector3d> pts;
-  for (const auto& p : out)
-    pts.emplace_back(p.x, p.y, p.z);
-  const std::vector<double> radius = pcl_ecs::pointRadii(f.getResult());
+  ASSERT_TRUE(s.error.empty()) << s.error;
+  const auto& pts = s.points;
+  const auto& radius = s.radius;
+  const auto& ref = s.reference;
   std::vector<double> unknown = radius;
   std::size_t kept = 0;
   for (double& r : unknown)
