@@ -87,9 +87,10 @@ Output:
   --labels            add a field 'ecs_label' (uint8): 1 feature, 2 representative; in LAS and LAZ
                       an extra dimension (Extra Bytes VLR: laspy, PDAL, CloudCompare read it)
   --radii             add a field 'ecs_radius' (float; in LAS and LAZ an extra dimension): the
-                      radius of the ball each point stands for, 0 for a feature point;
-                      pcd_reconstruct meshes with it as --mesh does (refusing triangles between
-                      balls far from overlapping)
+                      radius of the ball each point stands for, 0 for a point kept as it is (a
+                      feature point, a gap point); pcd_reconstruct meshes with it as --mesh does
+                      (refusing triangles between balls far from overlapping, a point of radius 0
+                      judged by its nearest ball)
   --mesh FILE         also triangulate the simplified cloud with Cocone and write the mesh to
                       FILE (.ply, .obj or .vtk); the Cocone flags below tune it
   --stats FILE.json   write what was done: parameters, counts, time per stage, largest error,
