@@ -108,7 +108,7 @@ struct CoconeStats
   std::size_t stitched_loops = 0;     ///< pairs of facing boundary loops joined by a band
   std::size_t stitched_triangles = 0; ///< triangles of those bands
   std::size_t narrowed_loops = 0;     ///< holes closed but for a gap of at most 8 vertices wider than the guard
-  std::size_t flipped_edges = 0;      ///< edges between ear-clipped triangles flipped to bend the surface less
+  std::size_t flipped_edges = 0;      ///< edges flipped to bend the surface less (the clean-up, step 7)
   std::size_t components = 0;
   std::size_t dropped_layers = 0;  ///< small pieces dropped as second layers over the largest one
   std::size_t sealed_loops = 0;  ///< boundary loops sealed by the watertight option
