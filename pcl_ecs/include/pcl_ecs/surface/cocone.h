@@ -151,9 +151,9 @@ struct CoconeResult
  * a gear (the pinion at 3%: triangles of 0.23 L, 10 × the median edge). On the same 33 runs this
  * brings the meshes to 0.935 × the distance they had with those points unknown (geometric mean; the
  * pinion at 3% 0.45, the fandisk at the defaults 0.56 and at 3% 0.65, the spool at 10% 0.90; the
- * worst the bunny at 10%, 1.02), the Euler characteristic nearer the reference's on 8 of the 12
- * runs of the CAD parts it changes, and more boundary edges on 5 runs (the fandisk at the defaults
- * 0 → 307 in one loop the hole filling leaves, the pinion at 10% 119 → 368), fewer on 4. */
+ * worst the bunny at 10%, 1.02), the Euler characteristic nearer the reference's on 8 of the 11
+ * runs whose χ it changes (farther on 2), and more boundary edges on 7 runs (the fandisk at the
+ * defaults 0 → 307 in one loop the hole filling leaves, the pinion at 10% 119 → 368), fewer on 5. */
 constexpr double kApartBallRatio = 2.0;
 
 /** \brief Reconstruct the surface through `points`. Never throws on bad geometry: fewer than four
