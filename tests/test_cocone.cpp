@@ -933,6 +933,11 @@ bool simplifiedPinion(std::size_t percent, SimplifiedPinion& s)
     s.error = "pointRadii gives " + std::to_string(s.radius.size()) + " radii for " + std::to_string(s.points.size()) + " points";
   return true;
 }
+/// The distances between a mesh of the simplified pinion's points and the reference.
+bool toReference(const SimplifiedPinion& s, const std::vector<Triangle>& triangles, pcl_ecs::eval::MeshDistance& d)
+{
+  return pcl_ecs::eval::meshDistance(asTriangleMesh(s.points, triangles), s.reference, d);
+}
 }  // namespace
 
 TEST(CoconeScan, TheSimplifiedGearHasNoTrianglesAcrossItsTeeth)
@@ -946,16 +951,14 @@ TEST(CoconeScan, TheSimplifiedGearHasNoTrianglesAcrossItsTeeth)
     GTEST_SKIP() << "shared data missing";
   ASSERT_TRUE(s.error.empty()) << s.error;
   const auto& pts = s.points;
-  const auto& radius = s.radius;
-  const auto& ref = s.reference;
   const auto plain = coconeReconstruct(pts);
-  const auto with = coconeReconstruct(pts, CoconeParameters(), radius);
+  const auto with = coconeReconstruct(pts, CoconeParameters(), s.radius);
   ASSERT_TRUE(plain.ok() && with.ok());
   EXPECT_GT(with.stats.apart_triangles, 0u);
   EXPECT_TRUE(analyzeTopology(pts.size(), with.triangles).isManifold());
   pcl_ecs::eval::MeshDistance d_plain, d_with;
-  ASSERT_TRUE(pcl_ecs::eval::meshDistance(asTriangleMesh(pts, plain.triangles), ref, d_plain));
-  ASSERT_TRUE(pcl_ecs::eval::meshDistance(asTriangleMesh(pts, with.triangles), ref, d_with));
+  ASSERT_TRUE(toReference(s, plain.triangles, d_plain));
+  ASSERT_TRUE(toReference(s, with.triangles, d_with));
   std::printf("pinion 10%%: %zu apart triangles; mesh to reference mean %.3g L (max %.3g L) with radii, %.3g L (%.3g L) "
               "without\n",
               with.stats.apart_triangles, d_with.to_reference_mean, d_with.to_reference_max, d_plain.to_reference_mean,
@@ -975,9 +978,7 @@ TEST(CoconeScan, TheSimplifiedGearsKeptPointsAreJudgedByTheirNearestBall)
     GTEST_SKIP() << "shared data missing";
   ASSERT_TRUE(s.error.empty()) << s.error;
   const auto& pts = s.points;
-  const auto& radius = s.radius;
-  const auto& ref = s.reference;
-  std::vector<double> unknown = radius;
+  std::vector<double> unknown = s.radius;
   std::size_t kept = 0;
   for (double& r : unknown)
     if (r == 0.0)
@@ -986,7 +987,7 @@ TEST(CoconeScan, TheSimplifiedGearsKeptPointsAreJudgedByTheirNearestBall)
       ++kept;
     }
   ASSERT_GT(kept, 100u);
-  const auto with = coconeReconstruct(pts, CoconeParameters(), radius);
+  const auto with = coconeReconstruct(pts, CoconeParameters(), s.radius);
   const auto without = coconeReconstruct(pts, CoconeParameters(), unknown);
   ASSERT_TRUE(with.ok() && without.ok());
   EXPECT_GT(with.stats.apart_triangles, without.stats.apart_triangles);
@@ -994,8 +995,8 @@ TEST(CoconeScan, TheSimplifiedGearsKeptPointsAreJudgedByTheirNearestBall)
   EXPECT_TRUE(topo.isManifold());
   EXPECT_EQ(with.stats.components, 1u);
   pcl_ecs::eval::MeshDistance d_with, d_without;
-  ASSERT_TRUE(pcl_ecs::eval::meshDistance(asTriangleMesh(pts, with.triangles), ref, d_with));
-  ASSERT_TRUE(pcl_ecs::eval::meshDistance(asTriangleMesh(pts, without.triangles), ref, d_without));
+  ASSERT_TRUE(toReference(s, with.triangles, d_with));
+  ASSERT_TRUE(toReference(s, without.triangles, d_without));
   std::printf("pinion 3%%: %zu kept points; mesh to reference mean %.3g L (max %.3g L) judged by the nearest ball, "
               "%.3g L (%.3g L) unknown\n",
               kept, d_with.to_reference_mean, d_with.to_reference_max, d_without.to_reference_mean,
