@@ -4,7 +4,7 @@
 // time. The Delaunay triangulation alone is timed in the same run (Cocone's target: at most 3×).
 //
 //   bench_surface SHARED_DATA_DIR OUT.json [--only NAME]
-//   bench_surface SHARED_DATA_DIR OUT.json --closed [--only NAME] [--quick]
+//   bench_surface SHARED_DATA_DIR OUT.json --closed [--only NAME] [--quick] [--meshes DIR]
 //
 // --closed: the shared closed shapes (five organic, five CAD parts) simplified to 10% and 3%,
 // meshed by every method: boundary edges as a share of the edges, Euler characteristic against the
@@ -16,6 +16,7 @@
 #include <pcl_ecs/eval/quality_metrics.h>
 #include <pcl_ecs/feature_aware_cover_simplify.h>
 #include <pcl_ecs/surface/cocone.h>
+#include <pcl_ecs/surface/mesh_io.h>
 
 #include <CGAL/Advancing_front_surface_reconstruction.h>
 #include <CGAL/Delaunay_triangulation_3.h>
@@ -30,6 +31,7 @@
 #include <nlohmann/json.hpp>
 
 #include <array>
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <fstream>
@@ -291,6 +293,29 @@ nlohmann::json measure(const Input& in, const MethodResult& r, const eval::Trian
   return j;
 }
 
+/// `r`'s mesh as DIR/SHAPE_KEPT_METHOD.ply (the method's name with every character that is not a
+/// letter or a digit made '_').
+void writeMeshFile(const std::string& dir, const std::string& shape, double ratio, const MethodResult& r)
+{
+  std::string method;
+  for (const char ch : r.method)
+    method += std::isalnum(static_cast<unsigned char>(ch)) ? ch : '_';
+  char kept[16];
+  std::snprintf(kept, sizeof kept, "%g", 100 * ratio);
+  const std::string path = dir + "/" + shape + "_" + kept + "_" + method + ".ply";
+  std::ofstream out(path, std::ios::binary);
+  try
+  {
+    if (!out)
+      throw std::runtime_error("cannot open it");
+    surface::writeMesh(out, surface::MeshFormat::Ply, surface::compactMesh(r.vertices, r.triangles));
+  }
+  catch (const std::exception& e)
+  {
+    std::fprintf(stderr, "bench_surface: could not write %s: %s\n", path.c_str(), e.what());
+  }
+}
+
 template <typename Run>
 MethodResult leastOf(int repeats, Run run)
 {
@@ -305,7 +330,10 @@ MethodResult leastOf(int repeats, Run run)
 }
 
 /// The closed shapes at 10% and 3% (see the header): one table row per method, the bar per input.
-int runClosed(const std::string& data, const std::string& out_path, const std::string& only, bool quick)
+/// With --meshes DIR, each method's mesh is also written to DIR/SHAPE_KEPT_METHOD.ply (binary PLY,
+/// the vertices the triangles use), to look at in any mesh viewer.
+int runClosed(const std::string& data, const std::string& out_path, const std::string& only, bool quick,
+              const std::string& mesh_dir)
 {
   const std::vector<std::string> shapes = {"bunny",  "elephant", "fertility", "spot",  "camelhead",
                                            "pinion", "turbine",  "joint",     "spool", "part"};
@@ -345,7 +373,11 @@ int runClosed(const std::string& data, const std::string& out_path, const std::s
       }
       std::vector<nlohmann::json> js;
       for (const auto& r : runs)
+      {
         js.push_back(measure(in, r, &ref));
+        if (!mesh_dir.empty())
+          writeMeshFile(mesh_dir, shape, ratio, r);
+      }
       const double af_time = js[1]["seconds"].get<double>(), af_mean = js[1].value("to_reference_mean", 0.0);
       for (std::size_t m = 0; m < runs.size(); ++m)
       {
@@ -386,11 +418,11 @@ int main(int argc, char** argv)
 {
   if (argc < 3)
   {
-    std::fprintf(stderr, "usage: bench_surface SHARED_DATA_DIR OUT.json [--only NAME]\n");
+    std::fprintf(stderr, "usage: bench_surface SHARED_DATA_DIR OUT.json [--closed [--quick] [--meshes DIR]] [--only NAME]\n");
     return 2;
   }
   const std::string data = argv[1], out_path = argv[2];
-  std::string only;
+  std::string only, mesh_dir;
   bool closed = false, quick = false;
   for (int i = 3; i < argc; ++i)
   {
@@ -401,6 +433,8 @@ int main(int argc, char** argv)
       closed = true;
     else if (a == "--quick")
       quick = true;
+    else if (a == "--meshes" && i + 1 < argc)
+      mesh_dir = argv[++i];
     else
     {
       std::fprintf(stderr, "bench_surface: unknown argument %s\n", a.c_str());
@@ -408,7 +442,7 @@ int main(int argc, char** argv)
     }
   }
   if (closed)
-    return runClosed(data, out_path, only, quick);
+    return runClosed(data, out_path, only, quick, mesh_dir);
   std::vector<std::function<Input()>> makers = {
       [&] { return simplified("bunny, simplified (defaults)", data + "/bunny_mesh.ply", false, data + "/bunny.pcd"); },
       [&] { return simplified("fandisk, simplified (defaults)", data + "/fandisk_mesh.ply", false, data + "/fandisk_scan.pcd"); },
