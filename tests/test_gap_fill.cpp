@@ -78,6 +78,41 @@ TEST(GapFill, EveryPointEndsWithinTheGapAndTheCountsStayTotal)
       EXPECT_GT((run.out.balls[a].representative - run.out.balls[b].representative).norm(), gap);
 }
 
+TEST(GapFill, OpenPointsAreTheFarOnesAndTheTwoStepsAreFillGaps)
+{
+  // The open points at a bound are exactly the covered points farther than it from every output
+  // point (brute force); those of a wider bound, tested only among the open points of a smaller
+  // one, are the same; and the greedy step on them adds the balls fillGaps adds.
+  auto cloud = randomPlane(3000, 1.0, 9);
+  pcl_ecs::Parameters p;
+  p.radius_cap_factor = 8.0;
+  p.threads = 3;
+  CoverRun run(cloud, p, 0.2);
+  const pcl_ecs::CoverInput in = run.input();
+  const double narrow = 0.2 * p.radius_cap_factor * in.neighborhood_radius;
+  const double wide = 1.5 * narrow;
+  const std::vector<std::size_t> open_narrow = pcl_ecs::gapOpenPoints(in, p, run.out, narrow);
+  const std::vector<std::size_t> open_wide = pcl_ecs::gapOpenPoints(in, p, run.out, wide);
+  std::vector<std::size_t> brute;
+  for (std::size_t i = 0; i < cloud->size(); ++i)
+    if (distanceToOutput(*cloud, run.feature, run.out, (*cloud)[i].getVector3fMap().cast<double>()) > wide)
+      brute.push_back(i);
+  ASSERT_FALSE(brute.empty()) << "the test must have gaps at the wider bound";
+  EXPECT_EQ(open_wide, brute);
+  EXPECT_GT(open_narrow.size(), open_wide.size());
+  EXPECT_EQ(pcl_ecs::gapOpenPoints(in, p, run.out, wide, &open_narrow), open_wide);
+  EXPECT_TRUE(pcl_ecs::gapOpenPoints(in, p, run.out, 0.0).empty());
+
+  pcl_ecs::CoverOutput one_step = run.out, two_steps = run.out;
+  const std::size_t added = pcl_ecs::fillGaps(in, p, 0.2, wide, one_step);
+  ASSERT_GT(added, 0u);
+  EXPECT_EQ(pcl_ecs::fillOpenGaps(in, p, 0.2, wide, open_wide, two_steps), added);
+  ASSERT_EQ(two_steps.balls.size(), one_step.balls.size());
+  for (std::size_t b = 0; b < one_step.balls.size(); ++b)
+    EXPECT_EQ(two_steps.balls[b].centre, one_step.balls[b].centre);
+  EXPECT_EQ(two_steps.owner, one_step.owner);
+}
+
 TEST(GapFill, OffOrWideGapChangesNothingAndFeaturesCount)
 {
   auto cloud = randomPlane(3000, 1.0, 6);

@@ -133,19 +133,27 @@ public:
       }
       if (covers_.size() >= kCachedCovers)
         covers_.pop_back();
-      covers_.push_front({terr, cap_factor, CoverOutput{}});
+      covers_.push_front({terr, cap_factor, CoverOutput{}, 0.0, {}});
       cover.finish(covers_.front().cover);
       ++passes_;
     }
     else
       covers_.splice(covers_.begin(), covers_, hit);
-    const CoverOutput& cached = covers_.front().cover;
+    CachedCover& kept = covers_.front();
+    const CoverOutput& cached = kept.cover;
     trial_top_up_ = trial_topped_ = 0;
     TargetTrialCounts c;
     c.below_cap = belowCap(cached.balls, cap);
-    trial_ = cached;
     trial_settings_ = Settings{terr, cap_factor, gap_factor};
-    c.gap_points = trial_gap_points_ = fillGaps(in_, params_, terr, gap_factor * in_.neighborhood_radius, trial_);
+    // The gap bound (fillGaps) in its two steps: only the points open at a smaller bound on this
+    // cover can be open at this one.
+    const double gap = gap_factor * in_.neighborhood_radius;
+    std::vector<std::size_t> open =
+        gapOpenPoints(in_, params_, cached, gap, kept.open_gap > 0.0 && kept.open_gap <= gap ? &kept.open : nullptr);
+    trial_ = cached;
+    c.gap_points = trial_gap_points_ = fillOpenGaps(in_, params_, terr, gap, open, trial_);
+    kept.open_gap = gap;
+    kept.open = std::move(open);
     c.balls = trial_.balls.size();
     model_ = CoverSizeModel(cached.balls, cap, c.gap_points);
     model_scale_ = 1.0;
@@ -270,6 +278,8 @@ private:
   {
     double terr, cap;
     CoverOutput cover;
+    double open_gap = 0.0;          ///< the last gap bound tried on it
+    std::vector<std::size_t> open;  ///< its open points there (gapOpenPoints)
   };
   struct Settings
   {

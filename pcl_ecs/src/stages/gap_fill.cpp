@@ -91,22 +91,20 @@ void addPointBall(const CoverInput& in, const Parameters& params, double error_t
   out.balls.push_back(b);
 }
 
-std::size_t fillGaps(const CoverInput& in, const Parameters& params, double error_threshold, double gap,
-                     CoverOutput& out)
+std::vector<std::size_t> gapOpenPoints(const CoverInput& in, const Parameters& params, const CoverOutput& out,
+                                       double gap, const std::vector<std::size_t>* among)
 {
+  std::vector<std::size_t> open;
   if (!(gap > 0.0) || !std::isfinite(gap))
-    return 0;
-  const std::size_t n = in.cloud.size();
+    return open;
   auto position = [&](std::size_t i) { return Eigen::Vector3d(in.cloud[i].getVector3fMap().cast<double>()); };
-  const std::vector<Eigen::Vector3d> outputs = outputPositions(in, out);
   // Candidates, in cloud order: covered points farther than the gap from their own representative,
   // and feature points the thinning left out farther than it from the feature point standing for
   // them (the others are within it of an output point already).
   const double gap2 = gap * gap;
   std::vector<std::size_t> index;
   std::vector<Eigen::Vector3d> candidates;
-  for (std::size_t i = 0; i < n; ++i)
-  {
+  auto consider = [&](std::size_t i) {
     const int o = out.owner[i];
     Eigen::Vector3d stood_for_by;
     if (o >= 0)
@@ -114,18 +112,55 @@ std::size_t fillGaps(const CoverInput& in, const Parameters& params, double erro
     else if (in.is_feature[i] && !in.featureOutput(i))
       stood_for_by = position(static_cast<std::size_t>((*in.feature_kept_by)[i]));
     else
-      continue;
+      return;
     const Eigen::Vector3d p = position(i);
     if ((p - stood_for_by).squaredNorm() > gap2)
     {
       index.push_back(i);
       candidates.push_back(p);
     }
+  };
+  if (among)
+    for (const std::size_t i : *among)
+      consider(i);
+  else
+    for (std::size_t i = 0; i < in.cloud.size(); ++i)
+      consider(i);
+  if (candidates.empty())
+    return open;
+  PointGrid grid(gap);
+  for (const Eigen::Vector3d& p : outputPositions(in, out))
+    grid.insert(p);
+  const std::vector<std::uint8_t> far = farFromGrid(grid, candidates, resolveThreads(params.threads));
+  for (std::size_t c = 0; c < index.size(); ++c)
+    if (far[c])
+      open.push_back(index[c]);
+  return open;
+}
+
+std::size_t fillOpenGaps(const CoverInput& in, const Parameters& params, double error_threshold, double gap,
+                         const std::vector<std::size_t>& open, CoverOutput& out)
+{
+  // The open points are far from the outputs: only the points added count.
+  PointGrid kept_grid(gap);
+  std::vector<std::size_t> kept;
+  for (const std::size_t i : open)
+  {
+    const Eigen::Vector3d p = in.cloud[i].getVector3fMap().cast<double>();
+    if (!kept.empty() && kept_grid.near(p))
+      continue;
+    kept.push_back(i);
+    kept_grid.insert(p);
   }
-  const std::vector<std::size_t> kept = closeGaps(outputs, candidates, gap, resolveThreads(params.threads));
-  for (const std::size_t c : kept)
-    addPointBall(in, params, error_threshold, index[c], out);
+  for (const std::size_t i : kept)
+    addPointBall(in, params, error_threshold, i, out);
   return kept.size();
+}
+
+std::size_t fillGaps(const CoverInput& in, const Parameters& params, double error_threshold, double gap,
+                     CoverOutput& out)
+{
+  return fillOpenGaps(in, params, error_threshold, gap, gapOpenPoints(in, params, out, gap), out);
 }
 
 std::size_t fillToCount(const CoverInput& in, const Parameters& params, double error_threshold, std::size_t count,

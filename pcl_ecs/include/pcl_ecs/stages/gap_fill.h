@@ -54,6 +54,23 @@ void addPointBall(const CoverInput& in, const Parameters& params, double error_t
 std::size_t fillGaps(const CoverInput& in, const Parameters& params, double error_threshold, double gap,
                      CoverOutput& out);
 
+/** \brief fillGaps in two steps, for several bounds on one cover (the target-size search widens
+ * the gap bound on a cover it keeps). gapOpenPoints gives the points fillGaps(`gap`) would start
+ * from: every covered point, and every feature point in.feature_kept_by leaves out, that lies
+ * farther than `gap` from its own output point and from every output point of `out` (ascending
+ * indices; none when `gap` is not a positive bound). With `among`, the result of gapOpenPoints on
+ * the same `out` at a bound at most `gap`, only those points are tested: a point within the smaller
+ * bound of an output point is within `gap` of it. Parallel on params.threads, independent of them. */
+std::vector<std::size_t> gapOpenPoints(const CoverInput& in, const Parameters& params, const CoverOutput& out,
+                                       double gap, const std::vector<std::size_t>* among = nullptr);
+
+/** \brief The greedy step of fillGaps on the points gapOpenPoints gave for `out` and `gap`: each,
+ * in order, with no point added before it within `gap`, becomes a ball of its own (addPointBall).
+ * fillOpenGaps(in, params, T, gap, gapOpenPoints(in, params, out, gap), out) is fillGaps(in, params,
+ * T, gap, out). Returns the number of balls added. */
+std::size_t fillOpenGaps(const CoverInput& in, const Parameters& params, double error_threshold, double gap,
+                         const std::vector<std::size_t>& open, CoverOutput& out);
+
 /** \brief Add `count` radius-0 balls, farthest first: each time the covered point farthest from
  * every output point (a feature point of `in`, a representative of `out`, a ball added before it)
  * becomes one (ties: the lower index), as addPointBall does. The target size uses it to reach its
