@@ -270,17 +270,25 @@ TEST(GapFill, FillToCountAddsTheFarthestPointEachTime)
   p.radius_cap_factor = 8.0;
   // Runs: 1 and 4 threads measuring every point up front, and measuring only the 4 × count
   // largest bounds up front (the rest in batches as their bounds reach the top of the queue: four
-  // batches on this plane).
-  std::vector<Eigen::Vector3d> reps[3];
-  for (int k = 0; k < 3; ++k)
+  // batches on this plane); then after a gap bound, told of it (`within`), and told of a bound
+  // that does not hold (the points it misses are measured again in the wide grid).
+  std::vector<Eigen::Vector3d> reps[5];
+  for (int k = 0; k < 5; ++k)
   {
     p.threads = k == 1 ? 4 : 1;
     CoverRun run(cloud, p, 0.2, feature);
     const pcl_ecs::CoverInput in = run.input();
+    const double gap = 0.4 * p.radius_cap_factor * in.neighborhood_radius;
+    double within = 0.0;
+    if (k >= 3)
+    {
+      ASSERT_GT(pcl_ecs::fillGaps(in, p, 0.2, gap, run.out), 0u);
+      within = k == 3 ? gap : 0.2 * gap;
+    }
     pcl_ecs::CoverOutput expected = run.out;
     const std::size_t before = run.out.balls.size();
     const std::size_t count = 60;
-    ASSERT_EQ(pcl_ecs::fillToCount(in, p, 0.2, count, run.out, k == 2 ? 0 : cloud->size()), count);
+    ASSERT_EQ(pcl_ecs::fillToCount(in, p, 0.2, count, run.out, within, k == 2 ? 0 : cloud->size()), count);
     ASSERT_EQ(run.out.balls.size(), before + count);
     for (std::size_t step = 0; step < count; ++step)
     {
@@ -322,4 +330,5 @@ TEST(GapFill, FillToCountAddsTheFarthestPointEachTime)
   }
   EXPECT_EQ(reps[0], reps[1]) << "the thread count changed the result";
   EXPECT_EQ(reps[0], reps[2]) << "measuring fewer points up front changed the result";
+  EXPECT_EQ(reps[3], reps[4]) << "the bound the nearest output is looked for within changed the result";
 }

@@ -172,7 +172,8 @@ public:
     if (trial_estimated_)
       return 0;
     if (!params_.relax_representatives)
-      return trial_topped_ = fillToCount(in_, params_, trial_settings_.terr, points, trial_);
+      return trial_topped_ = fillToCount(in_, params_, trial_settings_.terr, points, trial_,
+                                         trial_settings_.gap * in_.neighborhood_radius);
     std::size_t covered = 0, centres = 0;
     for (const int o : trial_.owner)
       covered += o >= 0 ? 1 : 0;
@@ -245,7 +246,9 @@ public:
   /// The kept trial's top-up, when topUp only counted it; returns the points added.
   std::size_t finishKept()
   {
-    return kept_top_up_ > 0 ? fillToCount(in_, keptParams(), kept_.terr, std::exchange(kept_top_up_, 0), best_) : 0;
+    return kept_top_up_ > 0 ? fillToCount(in_, keptParams(), kept_.terr, std::exchange(kept_top_up_, 0), best_,
+                                                 kept_.gap * in_.neighborhood_radius)
+                             : 0;
   }
   /// The kept trial again with its representatives relaxed (stages/representative_relax.h): its
   /// cover, relaxed, then its gap bound, then topped up (fillToCount) to `balls_wanted` balls when
@@ -257,7 +260,7 @@ public:
     relaxRepresentatives(in_, p, relaxed);
     const std::size_t gaps = fillGaps(in_, p, kept_.terr, kept_.gap * in_.neighborhood_radius, relaxed);
     const std::size_t short_of = balls_wanted > relaxed.balls.size() ? balls_wanted - relaxed.balls.size() : 0;
-    return {gaps, short_of > 0 ? fillToCount(in_, p, kept_.terr, short_of, relaxed) : 0};
+    return {gaps, short_of > 0 ? fillToCount(in_, p, kept_.terr, short_of, relaxed, kept_.gap * in_.neighborhood_radius) : 0};
   }
   double predictCount(double terr) const override
   {

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <queue>
 #include <utility>
 
@@ -164,7 +165,7 @@ std::size_t fillGaps(const CoverInput& in, const Parameters& params, double erro
 }
 
 std::size_t fillToCount(const CoverInput& in, const Parameters& params, double error_threshold, std::size_t count,
-                        CoverOutput& out, std::size_t measured_first)
+                        CoverOutput& out, double within, std::size_t measured_first)
 {
   if (count == 0)
     return 0;
@@ -187,9 +188,21 @@ std::size_t fillToCount(const CoverInput& in, const Parameters& params, double e
   if (entries.empty())
     return 0;
   const double side = std::sqrt(side2);
-  PointGrid outputs(side);
-  for (const Eigen::Vector3d& p : outputPositions(in, out))
+  // After a gap bound every covered point lies within it of an output point: the nearest one is
+  // looked for in a grid of that side, and in one of the largest bound's only when it is not found
+  // there (never, when `within` is the bound fillGaps applied last).
+  const std::vector<Eigen::Vector3d> output_positions = outputPositions(in, out);
+  const double near_side = within > 0.0 && within < side ? within : side;
+  PointGrid outputs(near_side);
+  for (const Eigen::Vector3d& p : output_positions)
     outputs.insert(p);
+  std::unique_ptr<PointGrid> wide_outputs;
+  auto nearestOutput = [&](const Eigen::Vector3d& p, double bound2) {
+    const double r = std::sqrt(bound2);
+    if (r <= near_side)
+      return outputs.nearestSquared(p, r, bound2);
+    return outputs.nearestSquared(p, near_side, -1.0);  // -1: not within near_side
+  };
   auto before = [](const Entry& a, const Entry& b) { return a.first < b.first || (a.first == b.first && a.second > b.second); };
   // Exact distances (to the output points, in parallel: the grid is only read) replace the bounds
   // of the entries with the largest bounds, `first` of them up front: the points taken come from
@@ -203,11 +216,32 @@ std::size_t fillToCount(const CoverInput& in, const Parameters& params, double e
     const auto begin = entries.begin() + static_cast<std::ptrdiff_t>(from);
     std::nth_element(begin, begin + static_cast<std::ptrdiff_t>(k) - 1, entries.end(), larger);
     const auto n = static_cast<std::ptrdiff_t>(k);
-#pragma omp parallel for schedule(dynamic, 4096) num_threads(threads)
+    bool missed = false;
+#pragma omp parallel for schedule(dynamic, 4096) num_threads(threads) reduction(|| : missed)
     for (std::ptrdiff_t c = 0; c < n; ++c)
     {
       Entry& e = entries[from + static_cast<std::size_t>(c)];
-      e.first = outputs.nearestSquared(position(e.second), std::sqrt(e.first), e.first);
+      const double d2 = nearestOutput(position(e.second), e.first);
+      if (d2 < 0.0)
+        missed = true;
+      else
+        e.first = d2;
+    }
+    if (!missed)
+      return;
+    // Points with no output point within near_side (their bound stands): the wide grid.
+    if (!wide_outputs)
+    {
+      wide_outputs = std::make_unique<PointGrid>(side);
+      for (const Eigen::Vector3d& p : output_positions)
+        wide_outputs->insert(p);
+    }
+    for (std::ptrdiff_t c = 0; c < n; ++c)
+    {
+      Entry& e = entries[from + static_cast<std::size_t>(c)];
+      const Eigen::Vector3d p = position(e.second);
+      if (!outputs.near(p, near_side))
+        e.first = wide_outputs->nearestSquared(p, std::sqrt(e.first), e.first);
     }
   };
   const std::size_t first = std::min(entries.size(), std::max(4 * count, measured_first));

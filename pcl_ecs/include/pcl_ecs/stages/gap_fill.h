@@ -80,9 +80,12 @@ std::size_t fillOpenGaps(const CoverInput& in, const Parameters& params, double 
  * A point's distance to its own representative bounds its distance to the output: the points with
  * the `measured_first` (at least 4 × count) largest bounds are measured up front, in parallel, the
  * others in parallel batches (largest bounds first, each batch as large as all measured before it)
- * only when the largest of their bounds comes above the top of the farthest-first queue. The
- * result depends on neither `measured_first` nor params.threads. */
+ * only when the largest of their bounds comes above the top of the farthest-first queue. With
+ * `within` > 0, the gap bound fillGaps last applied to `out`, the nearest output point of a point is
+ * looked for within that distance first (a grid of that side holds fewer points per cell than one
+ * of the largest bound's). The result depends on neither `measured_first`, `within` nor
+ * params.threads. */
 std::size_t fillToCount(const CoverInput& in, const Parameters& params, double error_threshold, std::size_t count,
-                        CoverOutput& out, std::size_t measured_first = 65536);
+                        CoverOutput& out, double within = 0.0, std::size_t measured_first = 65536);
 
 }  // namespace pcl_ecs
