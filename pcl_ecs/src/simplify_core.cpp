@@ -93,7 +93,8 @@ constexpr std::size_t kLeastFirstColourBalls = 500;
 /// The target-size search's count function (target_search.h): the cover at (T, cap), then the gap
 /// bound. The last few covers before their gap points are kept with their T and cap: a search
 /// that only widens the gap bound, or comes back to a T it tried at this cap, reuses the cover and
-/// redoes only the gap bound (the same result as running it again). Its prediction is the last
+/// redoes only the gap bound (the same result as running it again), testing against the output
+/// only the points left open at the smaller bound tried on it before. Its prediction is the last
 /// trial's CoverSizeModel (stages/cover_size_model.h).
 /// A trial far from the size wanted is estimated instead (ColourCover::run(1): a quarter to a third
 /// of a cover's time, the cells' order included): its first colour's balls times the multiple the last whole cover at the same
