@@ -27,6 +27,24 @@ std::vector<std::uint8_t> farFromGrid(const PointGrid& grid, const std::vector<E
     far[static_cast<std::size_t>(c)] = grid.near(points[static_cast<std::size_t>(c)]) ? 0 : 1;
   return far;
 }
+
+/// Greedily, in the order given: the indices whose points lie farther than `gap` from every point
+/// kept before them.
+template <typename Position>
+std::vector<std::size_t> keepApart(const std::vector<std::size_t>& order, Position position, double gap)
+{
+  PointGrid kept_grid(gap);
+  std::vector<std::size_t> kept;
+  for (const std::size_t i : order)
+  {
+    const Eigen::Vector3d p = position(i);
+    if (!kept.empty() && kept_grid.near(p))
+      continue;
+    kept.push_back(i);
+    kept_grid.insert(p);
+  }
+  return kept;
+}
 }  // namespace
 
 std::vector<std::uint8_t> farFrom(const std::vector<Eigen::Vector3d>& outputs,
@@ -43,23 +61,19 @@ std::vector<std::uint8_t> farFrom(const std::vector<Eigen::Vector3d>& outputs,
 std::vector<std::size_t> closeGaps(const std::vector<Eigen::Vector3d>& outputs,
                                    const std::vector<Eigen::Vector3d>& candidates, double gap, int threads)
 {
-  std::vector<std::size_t> kept;
   if (!(gap > 0.0) || !std::isfinite(gap) || candidates.empty())
-    return kept;
+    return {};
   PointGrid grid(gap);
   for (const Eigen::Vector3d& p : outputs)
     grid.insert(p);
   // Against the outputs alone (read-only grid: in parallel), then greedily in order.
-  const std::vector<std::uint8_t> open = farFromGrid(grid, candidates, threads);
-  PointGrid kept_grid(gap);  // the open candidates are far from the outputs: only the kept ones count
+  // The open candidates are far from the outputs: only the kept ones count after that.
+  const std::vector<std::uint8_t> far = farFromGrid(grid, candidates, threads);
+  std::vector<std::size_t> open;
   for (std::size_t c = 0; c < candidates.size(); ++c)
-  {
-    if (!open[c] || (!kept.empty() && kept_grid.near(candidates[c])))
-      continue;
-    kept.push_back(c);
-    kept_grid.insert(candidates[c]);
-  }
-  return kept;
+    if (far[c])
+      open.push_back(c);
+  return keepApart(open, [&](std::size_t c) { return candidates[c]; }, gap);
 }
 
 std::vector<Eigen::Vector3d> outputPositions(const CoverInput& in, const CoverOutput& out)
@@ -143,16 +157,8 @@ std::size_t fillOpenGaps(const CoverInput& in, const Parameters& params, double 
                          const std::vector<std::size_t>& open, CoverOutput& out)
 {
   // The open points are far from the outputs: only the points added count.
-  PointGrid kept_grid(gap);
-  std::vector<std::size_t> kept;
-  for (const std::size_t i : open)
-  {
-    const Eigen::Vector3d p = in.cloud[i].getVector3fMap().cast<double>();
-    if (!kept.empty() && kept_grid.near(p))
-      continue;
-    kept.push_back(i);
-    kept_grid.insert(p);
-  }
+  const std::vector<std::size_t> kept =
+      keepApart(open, [&](std::size_t i) { return Eigen::Vector3d(in.cloud[i].getVector3fMap().cast<double>()); }, gap);
   for (const std::size_t i : kept)
     addPointBall(in, params, error_threshold, i, out);
   return kept.size();
@@ -216,32 +222,30 @@ std::size_t fillToCount(const CoverInput& in, const Parameters& params, double e
     const auto begin = entries.begin() + static_cast<std::ptrdiff_t>(from);
     std::nth_element(begin, begin + static_cast<std::ptrdiff_t>(k) - 1, entries.end(), larger);
     const auto n = static_cast<std::ptrdiff_t>(k);
-    bool missed = false;
-#pragma omp parallel for schedule(dynamic, 4096) num_threads(threads) reduction(|| : missed)
+    std::vector<std::uint8_t> missed(k, 0);  // no output point within near_side: the bound stands
+#pragma omp parallel for schedule(dynamic, 4096) num_threads(threads)
     for (std::ptrdiff_t c = 0; c < n; ++c)
     {
       Entry& e = entries[from + static_cast<std::size_t>(c)];
       const double d2 = nearestOutput(position(e.second), e.first);
       if (d2 < 0.0)
-        missed = true;
+        missed[static_cast<std::size_t>(c)] = 1;
       else
         e.first = d2;
     }
-    if (!missed)
-      return;
-    // Points with no output point within near_side (their bound stands): the wide grid.
-    if (!wide_outputs)
+    // Those are measured in the wide grid.
+    for (std::size_t c = 0; c < k; ++c)
     {
-      wide_outputs = std::make_unique<PointGrid>(side);
-      for (const Eigen::Vector3d& p : output_positions)
-        wide_outputs->insert(p);
-    }
-    for (std::ptrdiff_t c = 0; c < n; ++c)
-    {
-      Entry& e = entries[from + static_cast<std::size_t>(c)];
-      const Eigen::Vector3d p = position(e.second);
-      if (!outputs.near(p, near_side))
-        e.first = wide_outputs->nearestSquared(p, std::sqrt(e.first), e.first);
+      if (!missed[c])
+        continue;
+      if (!wide_outputs)
+      {
+        wide_outputs = std::make_unique<PointGrid>(side);
+        for (const Eigen::Vector3d& p : output_positions)
+          wide_outputs->insert(p);
+      }
+      Entry& e = entries[from + c];
+      e.first = wide_outputs->nearestSquared(position(e.second), std::sqrt(e.first), e.first);
     }
   };
   const std::size_t first = std::min(entries.size(), std::max(4 * count, measured_first));
