@@ -187,6 +187,7 @@ TEST(Cocone, TorusIsClosedWithGenusOne)
   EXPECT_EQ(t.used_vertices, pts.size());
   EXPECT_EQ(t.triangles, 2 * pts.size());
   EXPECT_EQ(t.euler_characteristic, 0);
+  EXPECT_EQ(r.stats.removed_handles, 0u);  // its handle is far more than three samples around
 }
 
 TEST(Cocone, CappedSphereKeepsItsOpening)
@@ -784,6 +785,71 @@ TEST(CoconeCleanUp, EveryEdgeIsFlippedToBendTheSurfaceLess)
               st.flipped_edges, before.improvable, after.improvable, after.edges, before.total, after.total);
 }
 
+namespace
+{
+/// A UV sphere with a small handle: two triangles of its 6th band, three segments apart, replaced
+/// by a tube of six triangles between their loops (χ 0, one closed, oriented piece), the two
+/// triangles' vertices returned in `ends`.
+std::vector<Triangle> sphereWithSmallHandle(const UvSphere& s, std::vector<std::uint32_t>& ends)
+{
+  const Triangle a = s.bands[5][0], t2 = s.bands[5][6];
+  const Triangle b = {t2[0], t2[2], t2[1]};  // the tube runs b backwards, as t2 ran it
+  std::vector<Triangle> walked;
+  for (const auto& band : s.bands)
+    for (const Triangle& t : band)
+      if (t != a && t != t2)
+        walked.push_back(t);
+  for (int i = 0; i < 3; ++i)
+  {
+    walked.push_back({a[i], a[(i + 1) % 3], b[i]});
+    walked.push_back({b[i], a[(i + 1) % 3], b[(i + 1) % 3]});
+  }
+  ends = {a[0], a[1], a[2], t2[0], t2[1], t2[2]};
+  return walked;
+}
+}  // namespace
+
+TEST(CoconeCleanUp, ASmallHandleIsCutOut)
+{
+  // The three edges around either end of the tube make a cycle that is no triangle and does not
+  // separate the mesh: the triangles at one end's vertices are removed, the hole they leave and
+  // the other end's are closed, and the sphere comes back closed with χ 2, less the three vertices.
+  const UvSphere s = uvSphere(12, 24);
+  std::vector<std::uint32_t> ends;
+  const std::vector<Triangle> walked = sphereWithSmallHandle(s, ends);
+  const MeshTopology before = analyzeTopology(s.points.size(), walked);
+  ASSERT_TRUE(before.isClosedManifold());
+  ASSERT_EQ(before.euler_characteristic, 0);
+  pcl_ecs::surface::CoconeStats st;
+  const double spacing = 2 * 3.14159265358979323846 / 24;
+  const std::vector<Triangle> mesh = cleanUpOnly(s.points, spacing, walked, st);
+  expectOneClosedSphere(s.points, mesh);
+  EXPECT_TRUE(facesOut(s.points, mesh));
+  EXPECT_EQ(st.removed_handles, 1u);
+  EXPECT_EQ(analyzeTopology(s.points.size(), mesh).used_vertices, s.points.size() - 3);
+  std::size_t ends_used = 0;
+  for (const std::uint32_t v : ends)
+    ends_used += std::any_of(mesh.begin(), mesh.end(), [&](const Triangle& t) { return std::count(t.begin(), t.end(), v) > 0; });
+  EXPECT_EQ(ends_used, 3u);  // one end's vertices are gone, the other's close its hole
+}
+
+TEST(CoconeCleanUp, AHandleWhoseHolesTheGuardKeepsOpenStays)
+{
+  // The same handle with a spacing so small that the gap guard refuses every chord: the holes the
+  // cut would open cannot be closed, so nothing is cut and the mesh keeps its handle.
+  const UvSphere s = uvSphere(12, 24);
+  std::vector<std::uint32_t> ends;
+  const std::vector<Triangle> walked = sphereWithSmallHandle(s, ends);
+  pcl_ecs::surface::CoconeStats st;
+  const std::vector<Triangle> mesh = cleanUpOnly(s.points, 1e-3, walked, st);
+  const MeshTopology t = analyzeTopology(s.points.size(), mesh);
+  EXPECT_TRUE(t.isClosedManifold());
+  EXPECT_EQ(t.euler_characteristic, 0);
+  EXPECT_EQ(t.used_vertices, s.points.size());
+  EXPECT_EQ(st.removed_handles, 0u);
+  EXPECT_EQ(mesh.size(), walked.size());
+}
+
 TEST(CoconeCleanUp, AHoleClosedButForAGapWiderThanTheGuardKeepsItsTriangles)
 {
   // A sphere without its northern cap: one planar hole, a regular 24-gon of circumradius ρ (ring 3
@@ -1003,6 +1069,11 @@ TEST(CoconeScan, TheSimplifiedGearsKeptPointsAreJudgedByTheirNearestBall)
               d_without.to_reference_max);
   EXPECT_LT(d_with.to_reference_mean, 0.85 * d_without.to_reference_mean);
   EXPECT_LT(d_with.to_reference_max, 0.5 * d_without.to_reference_max);
+  // The walk joined sheets at the teeth into small handles the gear does not have; cut out, the
+  // mesh is closed with the gear's χ (0: one hole through it).
+  EXPECT_GT(with.stats.removed_handles, 0u);
+  EXPECT_TRUE(topo.isClosedManifold());
+  EXPECT_EQ(topo.euler_characteristic, 0);
 }
 
 // ---- watertight ----------------------------------------------------------------------------------

@@ -77,7 +77,8 @@ std::string coconeFlagsHelp()
     << "  --no-prune          skip the pruning of sharp edges\n"
     << "  --max-edge-ratio R  refuse triangles longer than R × the local spacing, 0 = off (default "
     << d.max_edge_ratio << ")\n"
-    << "  --fill-holes N      close boundary loops of at most N edges, 0 = off (default " << d.fill_hole_edges << ")\n"
+    << "  --fill-holes N      close boundary loops of at most N edges, then cut out handles only three\n"
+    << "                      edges around; 0 = neither (default " << d.fill_hole_edges << ")\n"
     << "  --watertight        seal every remaining boundary loop: a closed surface for closed objects\n"
     << "  --min-component N   drop pieces of fewer than N triangles (default " << d.min_component_triangles << ")\n";
   return s.str();
@@ -155,6 +156,7 @@ nlohmann::json meshStatsJson(const MeshRun& run, const surface::CoconeParameters
                  {"reoriented_pieces", s.reoriented_pieces},
                  {"stitched_loops", s.stitched_loops},
                  {"narrowed_loops", s.narrowed_loops},
+                 {"removed_handles", s.removed_handles},
                  {"dropped_layers", s.dropped_layers},
                  {"stitched_triangles", s.stitched_triangles},
                  {"flipped_edges", s.flipped_edges},

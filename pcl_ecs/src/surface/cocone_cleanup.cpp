@@ -420,79 +420,29 @@ public:
   }
   }
 
-  /// Holes (boundary loops of at most max_edges edges) are closed by ear clipping, shortest new
-  /// edge first; a loop whose ears would all create an existing edge (or, with the ratio guard, an
-  /// edge longer than max_edge_ratio × the local spacing: a gap in the sampling) is left open.
-  /// With the ratio guard, a loop the clipping closed but for at most kNarrowedLoopRest vertices
-  /// keeps the triangles it made (CoconeStats::narrowed_loops): what stays open is the gap itself.
-  /// `loops` come from holeLoops. Returns the number of loops closed.
+  /// Holes (boundary loops of at most max_edges edges) are closed by ear clipping (clipLoop); a
+  /// loop whose ears would all create an existing edge (or, with the ratio guard, an edge longer
+  /// than max_edge_ratio × the local spacing: a gap in the sampling) is left open. With the ratio
+  /// guard, a loop the clipping closed but for at most kNarrowedLoopRest vertices keeps the
+  /// triangles it made (CoconeStats::narrowed_loops): what stays open is the gap itself. `loops`
+  /// come from holeLoops. Returns the number of loops closed.
   std::size_t closeLoops(std::vector<std::vector<std::uint32_t>> loops, bool ratio_guard)
   {
-    const auto& points = points_;
-    const auto& spacing = spacing_;
-    const auto& params = params_;
-    auto& out = out_;
-    auto& keep = keep_;
-    auto& use = use_;
-    auto& st = st_;
     std::size_t closed_loops = 0;
     for (std::vector<std::uint32_t>& loop : loops)
     {
-      std::vector<Triangle> added;
-      std::unordered_set<std::uint64_t> chords;
-      // Newell normal of the loop, in the orientation the new triangles take: convex ears first, so
-      // that the seal does not fold over itself.
-      Eigen::Vector3d loop_normal = Eigen::Vector3d::Zero();
-      for (std::size_t i = 0; i < loop.size(); ++i)
-        loop_normal += points[loop[i]].cross(points[loop[(i + 1) % loop.size()]]);
-      while (loop.size() > 3)
-      {
-        double best = std::numeric_limits<double>::infinity();
-        std::size_t best_i = loop.size();
-        for (int pass = 0; pass < 2 && best_i == loop.size(); ++pass)
-        for (std::size_t i = 0; i < loop.size(); ++i)
-        {
-          const std::uint32_t prev = loop[(i + loop.size() - 1) % loop.size()], next = loop[(i + 1) % loop.size()];
-          const std::uint64_t key = edgeKey(prev, next);
-          if (use.count(key) || chords.count(key))
-            continue;
-          const double len = (points[prev] - points[next]).squaredNorm();
-          if (pass == 0 &&
-              (points[loop[i]] - points[prev]).cross(points[next] - points[prev]).dot(loop_normal) <= 0)
-            continue;  // a reflex ear: only when no convex one is left
-          if (ratio_guard && params.max_edge_ratio > 0)
-          {
-            const double local = std::max({spacing[prev], spacing[loop[i]], spacing[next]});
-            if (len > params.max_edge_ratio * params.max_edge_ratio * local * local)
-              continue;
-          }
-          if (len < best)
-          {
-            best = len;
-            best_i = i;
-          }
-        }
-        if (best_i == loop.size())
-          break;
-        const std::uint32_t prev = loop[(best_i + loop.size() - 1) % loop.size()], cur = loop[best_i],
-                            next = loop[(best_i + 1) % loop.size()];
-        added.push_back({prev, cur, next});
-        chords.insert(edgeKey(prev, next));
-        loop.erase(loop.begin() + static_cast<std::ptrdiff_t>(best_i));
-      }
+      std::vector<Triangle> added = clipLoop(loop, ratio_guard);
       const bool narrowed = ratio_guard && loop.size() > 3 && loop.size() <= kNarrowedLoopRest;
       if (loop.size() != 3 && !narrowed)
         continue;  // nothing of this loop is committed
       if (narrowed)
-        ++st.narrowed_loops;
+        ++st_.narrowed_loops;
       else
         added.push_back({loop[0], loop[1], loop[2]});
       for (const Triangle& tri : added)
       {
-        out.push_back(tri);
-        keep.push_back(1);
-        addEdges(tri);
-        ++st.filled_triangles;
+        commit(tri);
+        ++st_.filled_triangles;
       }
       closed_loops += narrowed ? 0 : 1;
     }
@@ -723,6 +673,385 @@ private:
     return true;
   }
 
+public:
+  /// Small handles the walk made are cut out (CoconeStats::removed_handles): a cycle of three mesh
+  /// edges that is no triangle of the mesh and does not separate it (the triangles on its two sides
+  /// are joined around it, found by a search from both sides within kHandleSearch triangles) runs
+  /// around a handle. The triangles at its three vertices (then, if that fails, at their
+  /// neighbours too) are removed and the holes this opens closed by the ear clipping of closeLoops,
+  /// gap guard included; the change is kept when every hole closes whole and the Euler
+  /// characteristic rose by at least 2 (a handle gone), and undone otherwise. A real tunnel is
+  /// sampled by more than three points around: such cycles run around handles of a triangle or
+  /// two, where the walk joined two sheets at a sharp edge or corner. Returns the handles removed.
+  std::size_t removeSmallHandles()
+  {
+    const std::size_t n = points_.size();
+    vertex_tris_.assign(n, {});
+    for (std::uint32_t t = 0; t < out_.size(); ++t)
+      if (keep_[t])
+        for (const std::uint32_t v : out_[t])
+          vertex_tris_[v].push_back(t);
+    // The candidate cycles a < b < c, in index order: c a common neighbour of the edge ab.
+    std::vector<std::uint32_t> offset(n + 1, 0), nbrs;
+    for (std::size_t v = 0; v < n; ++v)
+    {
+      for (const std::uint32_t t : vertex_tris_[v])
+        for (const std::uint32_t x : out_[t])
+          if (x != v)
+            nbrs.push_back(x);
+      std::sort(nbrs.begin() + offset[v], nbrs.end());
+      nbrs.erase(std::unique(nbrs.begin() + offset[v], nbrs.end()), nbrs.end());
+      offset[v + 1] = static_cast<std::uint32_t>(nbrs.size());
+    }
+    std::vector<Triangle> cycles;
+    std::vector<std::uint32_t> mark(n, kNone);  // mark[c] == a: c is a neighbour of a
+    for (std::uint32_t a = 0; a < n; ++a)
+    {
+      for (std::uint32_t k = offset[a]; k < offset[a + 1]; ++k)
+        mark[nbrs[k]] = a;
+      for (std::uint32_t k = offset[a]; k < offset[a + 1]; ++k)
+      {
+        const std::uint32_t b = nbrs[k];
+        if (b <= a)
+          continue;
+        std::size_t common = 0;  // two for an edge inside the mesh, unless a cycle runs through it
+        for (std::uint32_t j = offset[b]; j < offset[b + 1]; ++j)
+          common += mark[nbrs[j]] == a;
+        if (common <= 2)
+          continue;
+        for (std::uint32_t j = offset[b]; j < offset[b + 1]; ++j)
+        {
+          const std::uint32_t c = nbrs[j];
+          if (c > b && mark[c] == a && !isFace(a, b, c))
+            cycles.push_back({a, b, c});
+        }
+      }
+    }
+    std::size_t removed = 0;
+    for (const Triangle& cyc : cycles)
+    {
+      if (!aroundHandle(cyc))
+        continue;  // gone with an earlier handle, or separating
+      for (int rings = 1; rings <= 2; ++rings)
+        if (cutHandle(cyc, rings))
+        {
+          ++removed;
+          break;
+        }
+    }
+    vertex_tris_.clear();
+    return removed;
+  }
+
+private:
+  /// Triangles explored from both sides of a cycle before it is judged not to run around a small
+  /// handle (removeSmallHandles).
+  static constexpr std::size_t kHandleSearch = 20000;
+
+  void commit(const Triangle& tri)
+  {
+    out_.push_back(tri);
+    keep_.push_back(1);
+    addEdges(tri);
+    if (!vertex_tris_.empty())
+      for (const std::uint32_t v : tri)
+        vertex_tris_[v].push_back(static_cast<std::uint32_t>(out_.size() - 1));
+  }
+
+  /// The kept triangles at edge (x, y) (vertex_tris_ must be current).
+  std::vector<std::uint32_t> trianglesAt(std::uint32_t x, std::uint32_t y) const
+  {
+    std::vector<std::uint32_t> at;
+    for (const std::uint32_t t : vertex_tris_[x])
+      if (keep_[t] && (out_[t][0] == y || out_[t][1] == y || out_[t][2] == y))
+        at.push_back(t);
+    return at;
+  }
+
+  bool isFace(std::uint32_t a, std::uint32_t b, std::uint32_t c) const
+  {
+    for (const std::uint32_t t : vertex_tris_[a])
+    {
+      const Triangle& tri = out_[t];
+      if (keep_[t] && std::count(tri.begin(), tri.end(), b) == 1 && std::count(tri.begin(), tri.end(), c) == 1)
+        return true;
+    }
+    return false;
+  }
+
+  /// Whether the cycle of edges ab, bc, ca is there, no triangle, and does not separate the mesh:
+  /// the two triangles at ab meet across edges other than the cycle's within kHandleSearch
+  /// triangles, searched from both at once (a separating cycle's smaller side is used up first).
+  bool aroundHandle(const Triangle& cyc) const
+  {
+    const auto [a, b, c] = cyc;
+    for (int k = 0; k < 3; ++k)
+    {
+      const auto it = use_.find(edgeKey(cyc[k], cyc[(k + 1) % 3]));
+      if (it == use_.end() || it->second.count != 2)
+        return false;
+    }
+    if (isFace(a, b, c))
+      return false;
+    const std::vector<std::uint32_t> start = trianglesAt(a, b);
+    if (start.size() != 2)
+      return false;
+    const std::uint64_t cut[3] = {edgeKey(a, b), edgeKey(b, c), edgeKey(c, a)};
+    std::unordered_map<std::uint32_t, int> side;  // triangle -> 0 or 1: reached from start[side]
+    std::deque<std::uint32_t> queue[2];
+    for (int s = 0; s < 2; ++s)
+    {
+      side.emplace(start[s], s);
+      queue[s].push_back(start[s]);
+    }
+    std::size_t explored = 0;
+    while (!queue[0].empty() && !queue[1].empty() && explored < kHandleSearch)
+      for (int s = 0; s < 2; ++s)
+      {
+        const std::uint32_t t = queue[s].front();
+        queue[s].pop_front();
+        ++explored;
+        for (int k = 0; k < 3; ++k)
+        {
+          const std::uint32_t x = out_[t][k], y = out_[t][(k + 1) % 3];
+          const std::uint64_t key = edgeKey(x, y);
+          if (key == cut[0] || key == cut[1] || key == cut[2])
+            continue;
+
+          for (const std::uint32_t u : trianglesAt(x, y))
+          {
+            const auto [it, fresh] = side.emplace(u, s);
+            if (fresh)
+              queue[s].push_back(u);
+            else if (it->second != s)
+              return true;
+          }
+        }
+      }
+    return false;
+  }
+
+  /// removeSmallHandles' change at one cycle: the kept triangles within `rings` rings of its
+  /// vertices removed, the holes closed; kept when every hole closed and χ rose by at least 2.
+  bool cutHandle(const Triangle& cyc, int rings)
+  {
+    std::vector<std::uint32_t> verts(cyc.begin(), cyc.end()), region;
+    for (int r = 0; r < rings; ++r)
+    {
+      region.clear();
+      for (const std::uint32_t v : verts)
+        for (const std::uint32_t t : vertex_tris_[v])
+          if (keep_[t])
+            region.push_back(t);
+      std::sort(region.begin(), region.end());
+      region.erase(std::unique(region.begin(), region.end()), region.end());
+      if (r + 1 < rings)
+      {
+        for (const std::uint32_t t : region)
+          verts.insert(verts.end(), out_[t].begin(), out_[t].end());
+        std::sort(verts.begin(), verts.end());
+        verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+      }
+    }
+    // χ of what the change touches, before and after: its triangles, their edges and vertices.
+    std::vector<std::uint64_t> edges;
+    std::vector<std::uint32_t> vertices;
+    for (const std::uint32_t t : region)
+      for (int k = 0; k < 3; ++k)
+      {
+        edges.push_back(edgeKey(out_[t][k], out_[t][(k + 1) % 3]));
+        vertices.push_back(out_[t][k]);
+      }
+    auto touchedChi = [&](const std::vector<Triangle>& added) {
+      std::vector<std::uint64_t> e = edges;
+      for (const Triangle& tri : added)
+        for (int k = 0; k < 3; ++k)
+          e.push_back(edgeKey(tri[k], tri[(k + 1) % 3]));
+      std::sort(e.begin(), e.end());
+      e.erase(std::unique(e.begin(), e.end()), e.end());
+      std::vector<std::uint32_t> v = vertices;
+      std::sort(v.begin(), v.end());
+      v.erase(std::unique(v.begin(), v.end()), v.end());
+      long chi = 0;
+      for (const std::uint64_t key : e)
+        if (const auto it = use_.find(key); it != use_.end() && it->second.count > 0)
+          --chi;
+      for (const std::uint32_t x : v)
+        if (std::any_of(vertex_tris_[x].begin(), vertex_tris_[x].end(), [&](std::uint32_t t) { return keep_[t] != 0; }))
+          ++chi;
+      return chi;
+    };
+    const long before = touchedChi({}) + static_cast<long>(region.size());
+    for (const std::uint32_t t : region)
+    {
+      keep_[t] = 0;
+      removeEdges(out_[t]);
+    }
+    // The holes: hole edges b -> a of the edges a -> b the removal left with one triangle; a
+    // vertex with two of them (a pinch) or a hole through an edge that was open before fails.
+    std::unordered_map<std::uint32_t, std::uint32_t> hole_next;
+    bool ok = true;
+    std::vector<std::uint64_t> sorted_edges = edges;
+    std::sort(sorted_edges.begin(), sorted_edges.end());
+    sorted_edges.erase(std::unique(sorted_edges.begin(), sorted_edges.end()), sorted_edges.end());
+    for (const std::uint64_t key : sorted_edges)
+    {
+      const auto it = use_.find(key);
+      if (it == use_.end() || it->second.count != 1)
+        continue;
+      const auto lo = static_cast<std::uint32_t>(key >> 32), hi = static_cast<std::uint32_t>(key & 0xffffffffu);
+      const std::uint32_t from = it->second.from, to = from == lo ? hi : lo;
+      ok = ok && hole_next.emplace(to, from).second;
+    }
+    std::vector<Triangle> added;
+    std::unordered_set<std::uint32_t> visited;
+    std::vector<std::uint32_t> starts;
+    for (const auto& entry : hole_next)
+      starts.push_back(entry.first);
+    std::sort(starts.begin(), starts.end());
+    for (const std::uint32_t s0 : starts)
+    {
+      if (!ok)
+        break;
+      if (visited.count(s0))
+        continue;
+      std::vector<std::uint32_t> loop;
+      for (std::uint32_t v = s0;;)
+      {
+        visited.insert(v);
+        loop.push_back(v);
+        const auto it = hole_next.find(v);
+        if (it == hole_next.end())
+        {
+          ok = false;  // the hole goes on along an edge that was open before
+          break;
+        }
+        v = it->second;
+        if (v == s0)
+          break;
+        if (visited.count(v))
+        {
+          ok = false;
+          break;
+        }
+      }
+      if (!ok || loop.size() < 3)
+      {
+        ok = false;
+        break;
+      }
+      std::vector<Triangle> clipped = clipLoop(loop, true);
+      if (loop.size() != 3)
+      {
+        ok = false;
+        break;
+      }
+      clipped.push_back({loop[0], loop[1], loop[2]});
+      for (const Triangle& tri : clipped)
+        addEdges(tri);  // the next hole's chords must not repeat these
+      added.insert(added.end(), clipped.begin(), clipped.end());
+    }
+    for (const Triangle& tri : added)
+      removeEdges(tri);
+    if (ok)
+    {
+      const std::size_t first = out_.size();
+      for (const Triangle& tri : added)
+        commit(tri);
+      const long after = touchedChi(added) + static_cast<long>(added.size());
+      if (after - before >= 2)
+      {
+        st_.filled_triangles += added.size();
+        return true;
+      }
+      for (std::size_t t = first; t < out_.size(); ++t)
+      {
+        keep_[t] = 0;
+        removeEdges(out_[t]);
+      }
+    }
+    for (const std::uint32_t t : region)
+    {
+      keep_[t] = 1;
+      addEdges(out_[t]);
+    }
+    return false;
+  }
+
+  /// Ear clipping of one loop until three vertices are left or no ear is allowed: each step clips
+  /// the ear (prev, cur, next) whose chord prev-next is shortest, among the convex ones (against
+  /// the loop's Newell normal, in the orientation the new triangles take, so that the seal does
+  /// not fold over itself) or among all when none is convex; an ear whose chord is an edge of the
+  /// mesh or of this clipping, or (ratio_guard) longer than the gap guard, is never clipped.
+  /// `loop` is left as what remains; returns the triangles clipped, in order.
+  std::vector<Triangle> clipLoop(std::vector<std::uint32_t>& loop, bool ratio_guard) const
+  {
+    const auto& points = points_;
+    Eigen::Vector3d loop_normal = Eigen::Vector3d::Zero();
+    for (std::size_t i = 0; i < loop.size(); ++i)
+      loop_normal += points[loop[i]].cross(points[loop[(i + 1) % loop.size()]]);
+    std::vector<Triangle> added;
+    std::unordered_set<std::uint64_t> chords;
+    while (loop.size() > 3)
+    {
+      double best = std::numeric_limits<double>::infinity();
+      std::size_t best_i = loop.size();
+      for (int pass = 0; pass < 2 && best_i == loop.size(); ++pass)
+        for (std::size_t i = 0; i < loop.size(); ++i)
+        {
+          const std::uint32_t prev = loop[(i + loop.size() - 1) % loop.size()], next = loop[(i + 1) % loop.size()];
+          const std::uint64_t key = edgeKey(prev, next);
+          if (use_.count(key) || chords.count(key))
+            continue;
+          const double len = (points[prev] - points[next]).squaredNorm();
+          if (pass == 0 &&
+              (points[loop[i]] - points[prev]).cross(points[next] - points[prev]).dot(loop_normal) <= 0)
+            continue;  // a reflex ear: only when no convex one is left
+          if (ratio_guard && params_.max_edge_ratio > 0)
+          {
+            const double local = std::max({spacing_[prev], spacing_[loop[i]], spacing_[next]});
+            if (len > params_.max_edge_ratio * params_.max_edge_ratio * local * local)
+              continue;
+          }
+          if (len < best)
+          {
+            best = len;
+            best_i = i;
+          }
+        }
+      if (best_i == loop.size())
+        break;
+      const std::uint32_t prev = loop[(best_i + loop.size() - 1) % loop.size()], cur = loop[best_i],
+                          next = loop[(best_i + 1) % loop.size()];
+      added.push_back({prev, cur, next});
+      chords.insert(edgeKey(prev, next));
+      loop.erase(loop.begin() + static_cast<std::ptrdiff_t>(best_i));
+    }
+    return added;
+  }
+
+  /// Undoes addEdges; an edge left with one triangle takes that triangle's direction (found
+  /// through vertex_tris_, which removeSmallHandles keeps while it runs).
+  void removeEdges(const Triangle& tri)
+  {
+    for (int k = 0; k < 3; ++k)
+    {
+      const std::uint32_t x = tri[k], y = tri[(k + 1) % 3];
+      const auto it = use_.find(edgeKey(x, y));
+      if (--it->second.count == 0)
+      {
+        use_.erase(it);
+        continue;
+      }
+      if (it->second.count != 1)
+        continue;
+      for (const std::uint32_t t : trianglesAt(x, y))
+        for (int j = 0; j < 3; ++j)
+          if ((out_[t][j] == x && out_[t][(j + 1) % 3] == y) || (out_[t][j] == y && out_[t][(j + 1) % 3] == x))
+            it->second.from = out_[t][j];
+    }
+  }
+
 private:
   struct EdgeUse
   {
@@ -746,6 +1075,7 @@ private:
   std::vector<char>& keep_;
   CoconeStats& st_;
   std::unordered_map<std::uint64_t, EdgeUse> use_;
+  std::vector<std::vector<std::uint32_t>> vertex_tris_;  // while removeSmallHandles runs: kept triangles at each vertex
 };
 
 /// The point of triangle abc nearest to p (Ericson, Real-Time Collision Detection, 5.1.5).
@@ -1061,6 +1391,7 @@ std::vector<Triangle> cleanUp(const std::vector<Eigen::Vector3d>& points, const 
     std::vector<std::vector<std::uint32_t>> loops = fill.holeLoops(params.fill_hole_edges);
     st.stitched_loops = fill.stitchLoops(loops);
     fill.closeLoops(std::move(loops), true);
+    st.removed_handles = fill.removeSmallHandles();
   }
   if (params.watertight)
     st.sealed_loops = fill.closeLoops(fill.holeLoops(std::numeric_limits<std::size_t>::max() - 1), false);

@@ -72,7 +72,12 @@ struct CoconeParameters
    * open whatever its length; a loop the clipping closes but for at most 8 vertices, whose last
    * chords are wider than the guard, keeps its triangles and that gap stays open
    * (CoconeStats::narrowed_loops). The bound only caps the work (quadratic in a loop's length).
-   * 0 disables it. */
+   * Then small handles are cut out: a cycle of three edges that is no triangle and does not
+   * separate the mesh runs around a handle a triangle or two wide, which the walk makes at sharp
+   * edges and corners; the triangles at its vertices are removed and the holes closed the same
+   * way, and the cut is undone unless every hole closes and a handle is gone
+   * (CoconeStats::removed_handles; a real tunnel sampled by three points around is cut too).
+   * 0 disables both. */
   std::size_t fill_hole_edges = 2000;
   /** Close the surface into a watertight one for closed objects: after the steps above, every
    * remaining boundary loop, whatever its size, is sealed by ear clipping (shortest chord first,
@@ -108,6 +113,7 @@ struct CoconeStats
   std::size_t stitched_loops = 0;     ///< pairs of facing boundary loops joined by a band
   std::size_t stitched_triangles = 0; ///< triangles of those bands
   std::size_t narrowed_loops = 0;     ///< holes closed but for a gap of at most 8 vertices wider than the guard
+  std::size_t removed_handles = 0;    ///< small handles cut out: cycles of three edges around them (the clean-up, step 7)
   std::size_t flipped_edges = 0;      ///< edges flipped to bend the surface less (the clean-up, step 7)
   std::size_t components = 0;
   std::size_t dropped_layers = 0;  ///< small pieces dropped as second layers over the largest one
