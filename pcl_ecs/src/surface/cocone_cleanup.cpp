@@ -680,9 +680,10 @@ public:
   /// around a handle. The triangles at its three vertices (then, if that fails, at their
   /// neighbours too) are removed and the holes this opens closed by the ear clipping of closeLoops,
   /// gap guard included; the change is kept when every hole closes whole and the Euler
-  /// characteristic rose by at least 2 (a handle gone), and undone otherwise. A real tunnel is
-  /// sampled by more than three points around: such cycles run around handles of a triangle or
-  /// two, where the walk joined two sheets at a sharp edge or corner. Returns the handles removed.
+  /// characteristic rose by at least 2 (a handle gone), and undone otherwise. Such cycles run
+  /// around handles a triangle or two wide, where the walk joined two sheets at a sharp edge or a
+  /// corner; a tunnel of the surface sampled by more points around has none, one sampled by three
+  /// is cut too. Returns the handles removed.
   std::size_t removeSmallHandles()
   {
     const std::size_t n = points_.size();
