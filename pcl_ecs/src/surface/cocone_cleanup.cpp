@@ -3,6 +3,7 @@
 #include "cocone_detail.h"
 
 #include <deque>
+#include <optional>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -336,6 +337,95 @@ std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n)
 /// flanges at 3%: 1.22 × and 1.73 × farther from the reference than without the rule).
 constexpr std::size_t kNarrowedLoopRest = 8;
 
+/// The kept triangles at each vertex: a flat index of those kept when it is built, and short lists
+/// of the triangles added after that.
+class VertexTriangles
+{
+public:
+  VertexTriangles(const std::vector<Triangle>& tris, const std::vector<char>& keep, std::size_t n) : offset_(n + 1, 0)
+  {
+    for (std::size_t t = 0; t < tris.size(); ++t)
+      if (keep[t])
+        for (const std::uint32_t v : tris[t])
+          ++offset_[v + 1];
+    for (std::size_t v = 0; v < n; ++v)
+      offset_[v + 1] += offset_[v];
+    tris_.resize(offset_[n]);
+    std::vector<std::uint32_t> next(offset_.begin(), offset_.end() - 1);
+    for (std::uint32_t t = 0; t < tris.size(); ++t)
+      if (keep[t])
+        for (const std::uint32_t v : tris[t])
+          tris_[next[v]++] = t;
+  }
+
+  void add(std::uint32_t t, const Triangle& tri)
+  {
+    for (const std::uint32_t v : tri)
+      added_[v].push_back(t);
+  }
+
+  /// Calls f(t) for every triangle t at v that was kept when the index was built or added since;
+  /// one removed since is still listed (the caller checks whether it is kept).
+  template <class F>
+  void forEach(std::uint32_t v, F&& f) const
+  {
+    for (std::uint32_t k = offset_[v]; k < offset_[v + 1]; ++k)
+      f(tris_[k]);
+    if (const auto it = added_.find(v); it != added_.end())
+      for (const std::uint32_t t : it->second)
+        f(t);
+  }
+
+private:
+  std::vector<std::uint32_t> offset_, tris_;
+  std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> added_;
+};
+
+/// The loops of a set of hole edges given as next[v] (the hole goes on from v to next[v]), each
+/// from its smallest start in index order, of at most max_edges edges. `all_closed` tells whether
+/// every walk came back to its start (false when a walk ends at a vertex without a next, meets a
+/// loop walked before or grows too long; such walks give no loop).
+std::vector<std::vector<std::uint32_t>> followLoops(const std::unordered_map<std::uint32_t, std::uint32_t>& next,
+                                                    std::size_t max_edges, bool& all_closed)
+{
+  std::vector<std::uint32_t> starts;
+  starts.reserve(next.size());
+  for (const auto& entry : next)
+    starts.push_back(entry.first);
+  std::sort(starts.begin(), starts.end());
+  all_closed = true;
+  std::unordered_set<std::uint32_t> visited;
+  std::vector<std::vector<std::uint32_t>> loops;
+  for (const std::uint32_t s0 : starts)
+  {
+    if (visited.count(s0))
+      continue;
+    std::vector<std::uint32_t> loop;
+    bool closed = false;
+    for (std::uint32_t v = s0; loop.size() <= max_edges;)
+    {
+      visited.insert(v);
+      loop.push_back(v);
+      const auto it = next.find(v);
+      if (it == next.end())
+        break;
+      v = it->second;
+      if (v == s0)
+      {
+        closed = true;
+        break;
+      }
+      if (visited.count(v))
+        break;
+    }
+    if (closed && loop.size() >= 3 && loop.size() <= max_edges)
+      loops.push_back(std::move(loop));
+    else
+      all_closed = false;
+  }
+  return loops;
+}
+
 /// Step 7, third part: triangles added to the kept mesh, with the use of every edge tracked.
 class MeshFill
 {
@@ -456,8 +546,7 @@ public:
   std::vector<std::vector<std::uint32_t>> holeLoops(std::size_t max_edges) const
   {
     std::unordered_map<std::uint32_t, std::uint32_t> hole_next;
-    std::unordered_set<std::uint32_t> ambiguous;
-    std::vector<std::uint32_t> starts;
+    std::vector<std::uint32_t> ambiguous;
     for (const auto& [key, u] : use_)
     {
       if (u.count != 1)
@@ -465,41 +554,12 @@ public:
       const auto lo = static_cast<std::uint32_t>(key >> 32), hi = static_cast<std::uint32_t>(key & 0xffffffffu);
       const std::uint32_t a = u.from, b = (a == lo ? hi : lo);
       if (!hole_next.emplace(b, a).second)
-        ambiguous.insert(b);
-      starts.push_back(b);
+        ambiguous.push_back(b);
     }
-    std::sort(starts.begin(), starts.end());
-    std::unordered_set<std::uint32_t> visited;
-    std::vector<std::vector<std::uint32_t>> loops;
-    for (std::uint32_t s0 : starts)
-    {
-      if (visited.count(s0))
-        continue;
-      std::vector<std::uint32_t> loop;
-      std::uint32_t v = s0;
-      bool closed = false;
-      while (loop.size() <= max_edges)
-      {
-        if (ambiguous.count(v))
-          break;
-        visited.insert(v);
-        loop.push_back(v);
-        const auto it = hole_next.find(v);
-        if (it == hole_next.end())
-          break;
-        v = it->second;
-        if (v == s0)
-        {
-          closed = true;
-          break;
-        }
-        if (visited.count(v))
-          break;
-      }
-      if (closed && loop.size() >= 3 && loop.size() <= max_edges)
-        loops.push_back(std::move(loop));
-    }
-    return loops;
+    for (const std::uint32_t v : ambiguous)
+      hole_next.erase(v);  // a walk reaching it ends there
+    bool all_closed = false;
+    return followLoops(hole_next, max_edges, all_closed);
   }
 
   /// A piece cut off from the surface around it by a strip of missing triangles is joined back:
@@ -687,19 +747,16 @@ public:
   std::size_t removeSmallHandles()
   {
     const std::size_t n = points_.size();
-    vertex_tris_.assign(n, {});
-    for (std::uint32_t t = 0; t < out_.size(); ++t)
-      if (keep_[t])
-        for (const std::uint32_t v : out_[t])
-          vertex_tris_[v].push_back(t);
+    at_.emplace(out_, keep_, n);
     // The candidate cycles a < b < c, in index order: c a common neighbour of the edge ab.
     std::vector<std::uint32_t> offset(n + 1, 0), nbrs;
-    for (std::size_t v = 0; v < n; ++v)
+    for (std::uint32_t v = 0; v < n; ++v)
     {
-      for (const std::uint32_t t : vertex_tris_[v])
+      at_->forEach(v, [&](std::uint32_t t) {
         for (const std::uint32_t x : out_[t])
           if (x != v)
             nbrs.push_back(x);
+      });
       std::sort(nbrs.begin() + offset[v], nbrs.end());
       nbrs.erase(std::unique(nbrs.begin() + offset[v], nbrs.end()), nbrs.end());
       offset[v + 1] = static_cast<std::uint32_t>(nbrs.size());
@@ -740,7 +797,7 @@ public:
           break;
         }
     }
-    vertex_tris_.clear();
+    at_.reset();
     return removed;
   }
 
@@ -754,30 +811,36 @@ private:
     out_.push_back(tri);
     keep_.push_back(1);
     addEdges(tri);
-    if (!vertex_tris_.empty())
-      for (const std::uint32_t v : tri)
-        vertex_tris_[v].push_back(static_cast<std::uint32_t>(out_.size() - 1));
+    if (at_)
+      at_->add(static_cast<std::uint32_t>(out_.size() - 1), tri);
   }
 
-  /// The kept triangles at edge (x, y) (vertex_tris_ must be current).
+  /// The kept triangles at edge (x, y) (at_ must be there).
   std::vector<std::uint32_t> trianglesAt(std::uint32_t x, std::uint32_t y) const
   {
     std::vector<std::uint32_t> at;
-    for (const std::uint32_t t : vertex_tris_[x])
+    at_->forEach(x, [&](std::uint32_t t) {
       if (keep_[t] && (out_[t][0] == y || out_[t][1] == y || out_[t][2] == y))
         at.push_back(t);
+    });
     return at;
   }
 
   bool isFace(std::uint32_t a, std::uint32_t b, std::uint32_t c) const
   {
-    for (const std::uint32_t t : vertex_tris_[a])
-    {
+    bool face = false;
+    at_->forEach(a, [&](std::uint32_t t) {
       const Triangle& tri = out_[t];
-      if (keep_[t] && std::count(tri.begin(), tri.end(), b) == 1 && std::count(tri.begin(), tri.end(), c) == 1)
-        return true;
-    }
-    return false;
+      face = face || (keep_[t] && std::count(tri.begin(), tri.end(), b) == 1 && std::count(tri.begin(), tri.end(), c) == 1);
+    });
+    return face;
+  }
+
+  bool inMesh(std::uint32_t v) const
+  {
+    bool kept = false;
+    at_->forEach(v, [&](std::uint32_t t) { kept = kept || keep_[t] != 0; });
+    return kept;
   }
 
   /// Whether the cycle of edges ab, bc, ca is there, no triangle, and does not separate the mesh:
@@ -818,7 +881,6 @@ private:
           const std::uint64_t key = edgeKey(x, y);
           if (key == cut[0] || key == cut[1] || key == cut[2])
             continue;
-
           for (const std::uint32_t u : trianglesAt(x, y))
           {
             const auto [it, fresh] = side.emplace(u, s);
@@ -841,9 +903,10 @@ private:
     {
       region.clear();
       for (const std::uint32_t v : verts)
-        for (const std::uint32_t t : vertex_tris_[v])
+        at_->forEach(v, [&](std::uint32_t t) {
           if (keep_[t])
             region.push_back(t);
+        });
       std::sort(region.begin(), region.end());
       region.erase(std::unique(region.begin(), region.end()), region.end());
       if (r + 1 < rings)
@@ -878,8 +941,7 @@ private:
         if (const auto it = use_.find(key); it != use_.end() && it->second.count > 0)
           --chi;
       for (const std::uint32_t x : v)
-        if (std::any_of(vertex_tris_[x].begin(), vertex_tris_[x].end(), [&](std::uint32_t t) { return keep_[t] != 0; }))
-          ++chi;
+        chi += inMesh(x) ? 1 : 0;
       return chi;
     };
     const long before = touchedChi({}) + static_cast<long>(region.size());
@@ -904,43 +966,15 @@ private:
       const std::uint32_t from = it->second.from, to = from == lo ? hi : lo;
       ok = ok && hole_next.emplace(to, from).second;
     }
+    bool all_closed = false;  // false: a hole goes on along an edge that was open before
+    const std::vector<std::vector<std::uint32_t>> loops =
+        followLoops(hole_next, std::numeric_limits<std::size_t>::max() - 1, all_closed);
+    ok = ok && all_closed;
     std::vector<Triangle> added;
-    std::unordered_set<std::uint32_t> visited;
-    std::vector<std::uint32_t> starts;
-    for (const auto& entry : hole_next)
-      starts.push_back(entry.first);
-    std::sort(starts.begin(), starts.end());
-    for (const std::uint32_t s0 : starts)
+    for (std::vector<std::uint32_t> loop : loops)
     {
       if (!ok)
         break;
-      if (visited.count(s0))
-        continue;
-      std::vector<std::uint32_t> loop;
-      for (std::uint32_t v = s0;;)
-      {
-        visited.insert(v);
-        loop.push_back(v);
-        const auto it = hole_next.find(v);
-        if (it == hole_next.end())
-        {
-          ok = false;  // the hole goes on along an edge that was open before
-          break;
-        }
-        v = it->second;
-        if (v == s0)
-          break;
-        if (visited.count(v))
-        {
-          ok = false;
-          break;
-        }
-      }
-      if (!ok || loop.size() < 3)
-      {
-        ok = false;
-        break;
-      }
       std::vector<Triangle> clipped = clipLoop(loop, true);
       if (loop.size() != 3)
       {
@@ -1032,7 +1066,7 @@ private:
   }
 
   /// Undoes addEdges; an edge left with one triangle takes that triangle's direction (found
-  /// through vertex_tris_, which removeSmallHandles keeps while it runs).
+  /// through at_, which removeSmallHandles keeps while it runs).
   void removeEdges(const Triangle& tri)
   {
     for (int k = 0; k < 3; ++k)
@@ -1076,7 +1110,7 @@ private:
   std::vector<char>& keep_;
   CoconeStats& st_;
   std::unordered_map<std::uint64_t, EdgeUse> use_;
-  std::vector<std::vector<std::uint32_t>> vertex_tris_;  // while removeSmallHandles runs: kept triangles at each vertex
+  std::optional<VertexTriangles> at_;  // while removeSmallHandles runs: the triangles at each vertex
 };
 
 /// The point of triangle abc nearest to p (Ericson, Real-Time Collision Detection, 5.1.5).
