@@ -221,38 +221,36 @@ std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n)
 {
   std::vector<char> keep(out.size(), 1);
   {
-    // Edges: keep the first two triangles in walk order, and only if they disagree in direction.
-    std::vector<std::tuple<std::uint64_t, std::uint32_t, int>> de;
-    de.reserve(out.size() * 3);
-    for (std::uint32_t t = 0; t < out.size(); ++t)
-      for (int k = 0; k < 3; ++k)
-      {
-        const std::uint32_t a = out[t][k], b = out[t][(k + 1) % 3];
-        de.emplace_back(edgeKey(a, b), t, a < b ? 1 : -1);
-      }
-    // By edge, stably: made in triangle order, and a triangle has an edge once, so this is the
-    // (edge, triangle) order a sort of the tuples would give.
-    radixSortStable(de, [](const std::tuple<std::uint64_t, std::uint32_t, int>& e) { return std::get<0>(e); });
-    for (std::size_t i = 0; i < de.size();)
-    {
-      std::size_t j = i;
-      while (j < de.size() && std::get<0>(de[j]) == std::get<0>(de[i]))
-        ++j;
-      if (j - i >= 2)
-      {
-        // Walk order = triangle index order: de is sorted by (key, t).
-        const int d0 = std::get<2>(de[i]);
-        bool have_pair = false;
-        for (std::size_t k = i + 1; k < j; ++k)
+    // Edges: keep the first two triangles in walk order (triangle order), and only if they
+    // disagree in direction. Each edge ab (a < b) is met first at the first triangle of a's star
+    // that holds b; the star lists its triangles in triangle order.
+    const VertexStars stars = vertexStars(n, out);
+    std::vector<std::uint32_t> seen(n, kNone);  // seen[b] == a: edge ab done
+    for (std::uint32_t a = 0; a < n; ++a)
+      for (std::uint32_t i = stars.offset[a]; i < stars.offset[a + 1]; ++i)
+        for (const std::uint32_t b : out[stars.star[i]])
         {
-          if (!have_pair && std::get<2>(de[k]) == -d0)
-            have_pair = true;
-          else
-            keep[std::get<1>(de[k])] = 0;
+          if (b <= a || seen[b] == a)
+            continue;
+          seen[b] = a;
+          // +1 for a triangle that runs a -> b, -1 for b -> a.
+          auto direction = [&](const Triangle& t) {
+            const int k = t[0] == a ? 0 : t[1] == a ? 1 : 2;
+            return t[(k + 1) % 3] == b ? 1 : -1;
+          };
+          const int d0 = direction(out[stars.star[i]]);
+          bool have_pair = false;
+          for (std::uint32_t j = i + 1; j < stars.offset[a + 1]; ++j)
+          {
+            const Triangle& t = out[stars.star[j]];
+            if (t[0] != b && t[1] != b && t[2] != b)
+              continue;
+            if (!have_pair && direction(t) == -d0)
+              have_pair = true;
+            else
+              keep[stars.star[j]] = 0;
+          }
         }
-      }
-      i = j;
-    }
   }
   // Vertex fans: a vertex keeps its largest fan (triangles connected through edges at it). Removing
   // a fan can split a neighbour's star, so the neighbours are looked at again (a work list).
@@ -342,20 +340,9 @@ constexpr std::size_t kNarrowedLoopRest = 8;
 class VertexTriangles
 {
 public:
-  VertexTriangles(const std::vector<Triangle>& tris, const std::vector<char>& keep, std::size_t n) : offset_(n + 1, 0)
+  VertexTriangles(const std::vector<Triangle>& tris, const std::vector<char>& keep, std::size_t n)
+    : stars_(vertexStars(n, tris, &keep))
   {
-    for (std::size_t t = 0; t < tris.size(); ++t)
-      if (keep[t])
-        for (const std::uint32_t v : tris[t])
-          ++offset_[v + 1];
-    for (std::size_t v = 0; v < n; ++v)
-      offset_[v + 1] += offset_[v];
-    tris_.resize(offset_[n]);
-    std::vector<std::uint32_t> next(offset_.begin(), offset_.end() - 1);
-    for (std::uint32_t t = 0; t < tris.size(); ++t)
-      if (keep[t])
-        for (const std::uint32_t v : tris[t])
-          tris_[next[v]++] = t;
   }
 
   void add(std::uint32_t t, const Triangle& tri)
@@ -369,15 +356,15 @@ public:
   template <class F>
   void forEach(std::uint32_t v, F&& f) const
   {
-    for (std::uint32_t k = offset_[v]; k < offset_[v + 1]; ++k)
-      f(tris_[k]);
+    for (std::uint32_t k = stars_.offset[v]; k < stars_.offset[v + 1]; ++k)
+      f(stars_.star[k]);
     if (const auto it = added_.find(v); it != added_.end())
       for (const std::uint32_t t : it->second)
         f(t);
   }
 
 private:
-  std::vector<std::uint32_t> offset_, tris_;
+  VertexStars stars_;
   std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> added_;
 };
 
@@ -1162,11 +1149,12 @@ std::vector<Triangle> keepLargeComponents(const std::vector<Eigen::Vector3d>& po
     if (keep[t])
       kept.push_back(out[t]);
   UnionFind uf(kept.size());
-  const EdgeIndex index(kept);
-  const auto& pairs = index.pairs();
-  for (std::size_t i = 1; i < pairs.size(); ++i)
-    if (pairs[i].first == pairs[i - 1].first)
-      uf.unite(pairs[i].second, pairs[i - 1].second);
+  // After keepManifold and the filling, at most two triangles share an edge.
+  const std::vector<std::uint32_t> nbr = sideNeighbours(kept, vertexStars(points.size(), kept));
+  for (std::uint32_t t = 0; t < kept.size(); ++t)
+    for (std::uint32_t k = 0; k < 3; ++k)
+      if (nbr[3 * static_cast<std::size_t>(t) + k] != kNone)
+        uf.unite(t, nbr[3 * static_cast<std::size_t>(t) + k]);
   std::vector<std::size_t> size(kept.size(), 0);
   for (std::uint32_t t = 0; t < kept.size(); ++t)
     ++size[uf.find(t)];
@@ -1186,15 +1174,12 @@ std::vector<Triangle> keepLargeComponents(const std::vector<Eigen::Vector3d>& po
     if (!drop[t] && r != largest && static_cast<double>(size[r]) <= kLayerShare * static_cast<double>(size[largest]))
       members[r].push_back(t);
   }
-  // A piece is closed when each of its edges has two triangles (after keepManifold, at most two).
+  // A piece is closed when each of its edges has two triangles.
   std::vector<char> open(kept.size(), 0);
-  for (std::size_t i = 0; i < pairs.size(); ++i)
-  {
-    const bool shared = (i > 0 && pairs[i - 1].first == pairs[i].first) ||
-                        (i + 1 < pairs.size() && pairs[i + 1].first == pairs[i].first);
-    if (!shared)
-      open[uf.find(pairs[i].second)] = 1;
-  }
+  for (std::uint32_t t = 0; t < kept.size(); ++t)
+    for (std::uint32_t k = 0; k < 3; ++k)
+      if (nbr[3 * static_cast<std::size_t>(t) + k] == kNone)
+        open[uf.find(t)] = 1;
   for (std::uint32_t r = 0; r < kept.size(); ++r)
   {
     if (members[r].empty() || open[r])
@@ -1276,24 +1261,7 @@ std::size_t flipToBendLess(const std::vector<Eigen::Vector3d>& points, const std
   };
   // nbr[3 t + k]: the kept triangle across side k of kept triangle t (from out[t][k] to
   // out[t][k + 1]), kNone on a boundary (or where more than two kept triangles share the edge).
-  std::vector<std::uint32_t> nbr(3 * static_cast<std::size_t>(count), kNone);
-  {
-    const EdgeIndex index(out);
-    const auto& pairs = index.pairs();
-    for (std::size_t i = 0, j = 0; i < pairs.size(); i = j)
-    {
-      std::uint32_t kept[3];
-      std::size_t n = 0;
-      for (j = i; j < pairs.size() && pairs[j].first == pairs[i].first; ++j)
-        if (keep[pairs[j].second] && n < 3)
-          kept[n++] = pairs[j].second;
-      if (n != 2)
-        continue;
-      const auto a = static_cast<std::uint32_t>(pairs[i].first >> 32), b = static_cast<std::uint32_t>(pairs[i].first);
-      nbr[3 * kept[0] + sideOf(kept[0], a, b)] = kept[1];
-      nbr[3 * kept[1] + sideOf(kept[1], a, b)] = kept[0];
-    }
-  }
+  std::vector<std::uint32_t> nbr = sideNeighbours(out, vertexStars(points.size(), out, &keep));
   auto normal = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
     return (points[b] - points[a]).cross(points[c] - points[a]).normalized().eval();
   };

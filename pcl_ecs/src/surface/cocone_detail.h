@@ -149,6 +149,37 @@ inline VertexStars vertexStars(std::size_t num_points, const std::vector<Triangl
   return s;
 }
 
+/// The triangle across each side of every kept triangle: nbr[3 t + k] is the kept triangle that
+/// shares side k of t (from triangles[t][k] to triangles[t][k + 1]) when exactly two kept triangles
+/// have that edge, kNone otherwise (a boundary, or more than two). `stars` come from
+/// vertexStars(num_points, triangles, keep); unkept triangles get kNone on every side.
+inline std::vector<std::uint32_t> sideNeighbours(const std::vector<Triangle>& triangles, const VertexStars& stars)
+{
+  std::vector<std::uint32_t> nbr(3 * triangles.size(), kNone);
+  for (std::uint32_t a = 0; a + 1 < stars.offset.size(); ++a)
+    for (std::uint32_t i = stars.offset[a]; i < stars.offset[a + 1]; ++i)
+    {
+      const std::uint32_t t = stars.star[i];
+      const Triangle& tri = triangles[t];
+      const int k = tri[0] == a ? 0 : tri[1] == a ? 1 : 2;  // the side from a
+      const std::uint32_t b = tri[(k + 1) % 3];
+      std::uint32_t other = kNone, holders = 0;
+      for (std::uint32_t j = stars.offset[a]; j < stars.offset[a + 1]; ++j)
+      {
+        const Triangle& u = triangles[stars.star[j]];
+        if (u[0] == b || u[1] == b || u[2] == b)
+        {
+          ++holders;
+          if (stars.star[j] != t)
+            other = stars.star[j];
+        }
+      }
+      if (holders == 2)
+        nbr[3 * static_cast<std::size_t>(t) + static_cast<std::size_t>(k)] = other;
+    }
+  return nbr;
+}
+
 struct UnionFind
 {
   std::vector<std::uint32_t> parent;
