@@ -511,6 +511,50 @@ TEST(CoconeSampleRadii, APointKeptAsItIsTakesItsNearestBallsRadius)
   EXPECT_EQ(overlapRadii(pts, facets, radius), expected);
 }
 
+TEST(CoconeSideNeighbours, EachSideHasTheOtherTriangleOfItsEdgeWhenExactlyTwoAreKept)
+{
+  // sideNeighbours against a brute force over every pair of kept triangles: a closed tetrahedron
+  // (every side has its neighbour), an open fan beside it (boundary sides have none), an edge held
+  // by three triangles (none on that edge), and a triangle left out (it has none, and counts for
+  // no edge: the edge it would make a third of keeps its pair).
+  using pcl_ecs::surface::detail::kNone;
+  using pcl_ecs::surface::detail::sideNeighbours;
+  using pcl_ecs::surface::detail::vertexStars;
+  const std::vector<Triangle> tris = {
+      {0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {2, 0, 3},  // tetrahedron 0-3
+      {4, 5, 6}, {4, 6, 7}, {4, 7, 8},             // open fan round 4
+      {9, 10, 11}, {10, 9, 12}, {9, 10, 13},       // edge 9-10 held three times
+      {0, 1, 14},                                  // left out: would be a third on edge 0-1
+  };
+  std::vector<char> keep(tris.size(), 1);
+  keep.back() = 0;
+  const std::size_t n = 15;
+  const std::vector<std::uint32_t> nbr = sideNeighbours(tris, vertexStars(n, tris, &keep));
+  ASSERT_EQ(nbr.size(), 3 * tris.size());
+  auto hasEdge = [](const Triangle& t, std::uint32_t a, std::uint32_t b) {
+    return std::count(t.begin(), t.end(), a) == 1 && std::count(t.begin(), t.end(), b) == 1;
+  };
+  for (std::uint32_t t = 0; t < tris.size(); ++t)
+    for (std::uint32_t k = 0; k < 3; ++k)
+    {
+      std::vector<std::uint32_t> holders;
+      for (std::uint32_t u = 0; u < tris.size(); ++u)
+        if (keep[u] && hasEdge(tris[u], tris[t][k], tris[t][(k + 1) % 3]))
+          holders.push_back(u);
+      std::uint32_t expected = kNone;
+      if (keep[t] && holders.size() == 2)
+        expected = holders[0] == t ? holders[1] : holders[0];
+      EXPECT_EQ(nbr[3 * t + k], expected) << "triangle " << t << " side " << k;
+    }
+  // The cases the brute force covers, spelled out.
+  EXPECT_EQ(nbr[3 * 0 + 0], 3u);    // side 0-2 of {0, 2, 1}: {2, 0, 3}
+  EXPECT_EQ(nbr[3 * 0 + 2], 1u);    // side 1-0: {0, 1, 3}, the left-out {0, 1, 14} not counted
+  EXPECT_EQ(nbr[3 * 4 + 0], kNone);  // side 4-5 of the fan: a boundary
+  EXPECT_EQ(nbr[3 * 4 + 2], 5u);    // side 6-4: {4, 6, 7}
+  EXPECT_EQ(nbr[3 * 7 + 0], kNone);  // side 9-10: three triangles
+  EXPECT_EQ(nbr[3 * 10 + 0], kNone);  // the left-out triangle
+}
+
 namespace
 {
 /// A UV sphere of radius 1 about the origin: `rings` rings of `segments` points between the poles
