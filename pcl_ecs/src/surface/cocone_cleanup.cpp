@@ -823,6 +823,7 @@ private:
     return face;
   }
 
+  /// Whether some kept triangle holds v.
   bool inMesh(std::uint32_t v) const
   {
     bool kept = false;
