@@ -235,7 +235,7 @@ std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n)
           seen[b] = a;
           // +1 for a triangle that runs a -> b, -1 for b -> a.
           auto direction = [&](const Triangle& t) {
-            const int k = t[0] == a ? 0 : t[1] == a ? 1 : 2;
+            const int k = cornerOf(t, a);
             return t[(k + 1) % 3] == b ? 1 : -1;
           };
           const int d0 = direction(out[stars.star[i]]);
@@ -807,7 +807,7 @@ private:
   {
     std::vector<std::uint32_t> at;
     at_->forEach(x, [&](std::uint32_t t) {
-      if (keep_[t] && (out_[t][0] == y || out_[t][1] == y || out_[t][2] == y))
+      if (keep_[t] && holds(out_[t], y))
         at.push_back(t);
     });
     return at;
@@ -955,11 +955,11 @@ private:
       ok = ok && hole_next.emplace(to, from).second;
     }
     bool all_closed = false;  // false: a hole goes on along an edge that was open before
-    const std::vector<std::vector<std::uint32_t>> loops =
+    std::vector<std::vector<std::uint32_t>> loops =
         followLoops(hole_next, std::numeric_limits<std::size_t>::max() - 1, all_closed);
     ok = ok && all_closed;
     std::vector<Triangle> added;
-    for (std::vector<std::uint32_t> loop : loops)
+    for (std::vector<std::uint32_t>& loop : loops)
     {
       if (!ok)
         break;
@@ -1275,8 +1275,7 @@ std::size_t flipToBendLess(const std::vector<Eigen::Vector3d>& points, const std
     return k < 3 ? nbr[3 * t + k] : kNone;
   };
   auto bend = [&](const Eigen::Vector3d& n, std::uint32_t other) { return other == kNone ? 0.0 : 1 - n.dot(tn[other]); };
-  auto has = [&](std::uint32_t t, std::uint32_t v) { return out[t][0] == v || out[t][1] == v || out[t][2] == v; };
-  auto at = [&](std::uint32_t t, std::uint32_t v) -> std::uint32_t { return out[t][0] == v ? 0 : out[t][1] == v ? 1 : 2; };
+  auto at = [&](std::uint32_t t, std::uint32_t v) { return static_cast<std::uint32_t>(cornerOf(out[t], v)); };
   // Whether the edge v-w is in the mesh: some triangle of v's fan, walked from t0 (one of them)
   // across the sides at v both ways, holds w (whatever the triangles' orientation).
   auto hasEdge = [&](std::uint32_t t0, std::uint32_t v, std::uint32_t w) {
@@ -1285,7 +1284,7 @@ std::size_t flipToBendLess(const std::vector<Eigen::Vector3d>& points, const std
       std::uint32_t t = t0, side = way == 0 ? at(t0, v) : (at(t0, v) + 2) % 3;
       for (std::uint32_t steps = 0; steps < count; ++steps)
       {
-        if (has(t, w))
+        if (holds(out[t], w))
           return true;
         const std::uint32_t next = nbr[3 * t + side];
         if (next == kNone)

@@ -113,6 +113,18 @@ inline double halfPlaneAngle(const Eigen::Vector3d& a, const Eigen::Vector3d& e,
   return ang;
 }
 
+/** Whether triangle t has v as a corner. */
+inline bool holds(const Triangle& t, std::uint32_t v)
+{
+  return t[0] == v || t[1] == v || t[2] == v;
+}
+
+/** The position (0-2) of v in triangle t, which holds it. */
+inline int cornerOf(const Triangle& t, std::uint32_t v)
+{
+  return t[0] == v ? 0 : t[1] == v ? 1 : 2;
+}
+
 /** The vertex of triangle t that is not a or b. */
 inline std::uint32_t apex(const Triangle& t, std::uint32_t a, std::uint32_t b)
 {
@@ -161,13 +173,12 @@ inline std::vector<std::uint32_t> sideNeighbours(const std::vector<Triangle>& tr
     {
       const std::uint32_t t = stars.star[i];
       const Triangle& tri = triangles[t];
-      const int k = tri[0] == a ? 0 : tri[1] == a ? 1 : 2;  // the side from a
+      const int k = cornerOf(tri, a);  // the side from a
       const std::uint32_t b = tri[(k + 1) % 3];
       std::uint32_t other = kNone, holders = 0;
       for (std::uint32_t j = stars.offset[a]; j < stars.offset[a + 1]; ++j)
       {
-        const Triangle& u = triangles[stars.star[j]];
-        if (u[0] == b || u[1] == b || u[2] == b)
+        if (holds(triangles[stars.star[j]], b))
         {
           ++holders;
           if (stars.star[j] != t)
