@@ -343,16 +343,15 @@ TEST_F(MeshCli, SimplifiedClosedShapesAreMeshedWithoutHoles)
 
 TEST_F(MeshCli, CutOffPiecesFaceOutAndJoinTheSurface)
 {
-  // Where the simplified sampling is thin (a leg's end, an ear), the walk can cross a fold and go
-  // on with the other side up; the manifold clean-up cuts the fold and leaves a piece inside out,
-  // which the hole filling used to close on its own. Each piece now takes the orientation of the
-  // surface around it, and a piece whose loop faces a loop of the surface across the strip the walk
-  // left out is joined back by a band.
+  // Where the simplified sampling is thin (a leg's end, an ear), a walk can cross a fold and go on
+  // with the other side up, and the manifold clean-up then leaves a piece inside out. The walk
+  // crosses the flattest edges first, each piece left apart takes the orientation of the surface
+  // around it, and a piece whose loop faces a loop of the surface is joined back by a band: every
+  // piece faces out and the surface is whole. (The steps themselves: test_cocone.cpp.)
   const std::string spot = kShared + "/spot_scan.pcd", elephant = kShared + "/elephant_scan.pcd";
   if (!fs::exists(spot) || !fs::exists(elephant))
     GTEST_SKIP() << "shared data missing";
-  // Spot at 3%: every piece is closed and faces out (before: two pieces of 100 and 14 triangles
-  // inside out, 3 components, χ 6); one piece is joined back, one stays apart (2 components).
+  // Spot at 3%: every piece is closed and faces out, at most two pieces.
   RunResult r = run(kSimplify, spot + " " + path("spot.pcd") + " --target-ratio 0.03 --mesh " + path("spot.ply"));
   ASSERT_EQ(r.code, 0) << r.err;
   const MeshTopology ts = plyTopology(path("spot.ply"));
@@ -362,20 +361,15 @@ TEST_F(MeshCli, CutOffPiecesFaceOutAndJoinTheSurface)
   ASSERT_EQ(volumes.size(), ts.components);
   for (double vol : volumes)
     EXPECT_GT(vol, 0) << "a piece of the spot faces in";
-  // Elephant at 10% (genus 3): the piece at the thin part is joined back; one closed surface with
-  // the shape's Euler characteristic (before: 2 components, χ −2).
+  // Elephant at 10% (genus 3): one closed surface with the shape's Euler characteristic.
   r = run(kSimplify, elephant + " " + path("el.pcd") + " --target-ratio 0.1");
   ASSERT_EQ(r.code, 0) << r.err;
-  r = run(kReconstruct, path("el.pcd") + " " + path("el.ply") + " --stats " + path("el.json"));
+  r = run(kReconstruct, path("el.pcd") + " " + path("el.ply"));
   ASSERT_EQ(r.code, 0) << r.err;
   const MeshTopology te = plyTopology(path("el.ply"));
   EXPECT_TRUE(te.isClosedManifold());
   EXPECT_EQ(te.components, 1u);
   EXPECT_EQ(te.euler_characteristic, -4);
-  const nlohmann::json j = nlohmann::json::parse(std::ifstream(path("el.json")));
-  EXPECT_GE(j["counts"]["reoriented_pieces"].get<int>(), 1);
-  EXPECT_GE(j["counts"]["stitched_loops"].get<int>(), 1);
-  EXPECT_GT(j["counts"]["stitched_triangles"].get<int>(), 0);
   for (double vol : componentVolumes(path("el.ply")))
     EXPECT_GT(vol, 0);
 }

@@ -1135,12 +1135,8 @@ Eigen::Vector3d closestOnTriangle(const Eigen::Vector3d& p, const Eigen::Vector3
 /// that surface, not a surface of its own (keepLargeComponents).
 constexpr double kLayerShare = 0.01;
 constexpr double kLayerDistance = 0.5;
+}  // namespace
 
-/// Step 7, last part: the components (through shared edges) of what is kept; those of fewer than
-/// min_component_triangles triangles are dropped, and so are the second layers over the largest
-/// one: a small closed piece whose every vertex lies within half its local spacing of the largest
-/// piece's triangles (a pocket of a few samples the hole filling closed beside the surface they
-/// lie on).
 std::vector<Triangle> keepLargeComponents(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& spacing,
                                           const std::vector<Triangle>& out, const std::vector<char>& keep,
                                           const CoconeParameters& params, CoconeStats& st)
@@ -1241,6 +1237,8 @@ std::vector<Triangle> keepLargeComponents(const std::vector<Eigen::Vector3d>& po
   return result;
 }
 
+namespace
+{
 /// Step 7, last part: the kept mesh smoothed by edge flips. An edge between two kept triangles is
 /// flipped when the other diagonal of their quad bends the surface less, measured as the sum of
 /// (1 − cos) of the angles between the normals across the five edges the flip changes (the diagonal

@@ -313,9 +313,20 @@ std::vector<char> pruneCandidates(const std::vector<Eigen::Vector3d>& points, co
                                   const EdgeIndex& edges, const CoconeParameters& params, CoconeStats& st);
 
 /// Step 6: walk the live candidates into oriented pieces, each edge crossed to the neighbour that
-/// turns least; seeds: first the hull's extreme-x vertex, then any unused triangle.
+/// turns least, best first (the flattest crossing first); seeds: first the hull's extreme-x
+/// vertex, then any unused triangle.
 Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std::vector<Triangle>& cand,
                           const EdgeIndex& edges, const std::vector<char>& alive, const Poles& poles);
+
+/// Step 7, last part: the components (through shared edges) of the triangles t with keep[t];
+/// those of fewer than params.min_component_triangles triangles are dropped, and so are the second
+/// layers over the largest one: a closed piece of at most 1% of its triangles whose every vertex
+/// lies within half its local spacing (`spacing`) of the largest piece's triangles (a pocket of a
+/// few samples the hole filling closed beside the surface they lie on; st.dropped_layers counts
+/// them). st.components counts the pieces kept.
+std::vector<Triangle> keepLargeComponents(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& spacing,
+                                          const std::vector<Triangle>& out, const std::vector<char>& keep,
+                                          const CoconeParameters& params, CoconeStats& st);
 
 /// Step 7: the walked triangles made an oriented 2-manifold (at most two triangles an edge, one
 /// fan a vertex), notches and small holes closed, loops sealed when asked, small components

@@ -2,6 +2,9 @@
 // walk that extracts an oriented surface.
 #include "cocone_detail.h"
 
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <deque>
 
 namespace pcl_ecs
@@ -116,7 +119,7 @@ Eigen::Vector3d triangleNormal(const std::vector<Eigen::Vector3d>& points, const
 /// t towards its outside; kNone when the edge has no other live triangle.
 std::uint32_t leastTurning(const std::vector<Eigen::Vector3d>& points, const std::vector<Triangle>& cand,
                            const EdgeIndex& edges, const std::vector<char>& alive, std::uint32_t t, std::uint32_t a,
-                           std::uint32_t b, std::uint32_t c, const Eigen::Vector3d& nrm)
+                           std::uint32_t b, std::uint32_t c, const Eigen::Vector3d& nrm, double* turn = nullptr)
 {
   auto range = edges.at(t, a, b);
   if (range.second - range.first < 2)
@@ -142,8 +145,50 @@ std::uint32_t leastTurning(const std::vector<Eigen::Vector3d>& points, const std
       next = s;
     }
   }
+  if (turn)
+    *turn = best;
   return next;
 }
+
+/// The walk's queue, best first: triangles (with the orientation they would take) by the bend
+/// across the edge that reached them, |π − turn| in steps of π / 32; within a step, first in first
+/// out. Pushing below the current step moves back to it (a triangle reached later may lie across
+/// a flatter edge than those waiting).
+class BendQueue
+{
+public:
+  using Entry = std::pair<std::uint32_t, signed char>;
+  void push(double bend, std::uint32_t t, signed char o)
+  {
+    const int step = std::max(0, std::min(kSteps - 1, static_cast<int>(bend * (kSteps / kPi))));
+    steps_[static_cast<std::size_t>(step)].push_back({t, o});
+    current_ = std::min(current_, step);
+  }
+  /// The next entry; false when the queue is empty (it is then ready for another walk).
+  bool pop(Entry& e)
+  {
+    while (current_ < kSteps && head_[static_cast<std::size_t>(current_)] == steps_[static_cast<std::size_t>(current_)].size())
+      ++current_;
+    if (current_ == kSteps)
+    {
+      for (int k = 0; k < kSteps; ++k)
+      {
+        steps_[static_cast<std::size_t>(k)].clear();
+        head_[static_cast<std::size_t>(k)] = 0;
+      }
+      current_ = 0;
+      return false;
+    }
+    e = steps_[static_cast<std::size_t>(current_)][head_[static_cast<std::size_t>(current_)]++];
+    return true;
+  }
+
+private:
+  static constexpr int kSteps = 32;
+  std::array<std::vector<Entry>, kSteps> steps_;
+  std::array<std::size_t, kSteps> head_{};
+  int current_ = 0;
+};
 
 /// The seed of the first piece: the live triangle at the extreme-x hull vertex most aligned with
 /// that vertex's axis; kNone when no hull vertex has a live triangle.
@@ -185,7 +230,8 @@ std::uint32_t hullSeed(const std::vector<Eigen::Vector3d>& points, const std::ve
 }  // namespace
 
 /// Step 6: walk the live candidates into oriented pieces, each edge crossed to the neighbour that
-/// turns least; seeds: first the hull's extreme-x vertex, then any unused triangle.
+/// turns least, best first (the flattest crossing first: BendQueue); seeds: first the hull's
+/// extreme-x vertex, then any unused triangle.
 Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std::vector<Triangle>& cand,
                           const EdgeIndex& edges, const std::vector<char>& alive, const Poles& poles)
 {
@@ -195,7 +241,6 @@ Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std:
   const auto& axis = poles.axis;
   std::vector<signed char> orient(cand.size(), 0);  // +1: as stored, −1: reversed
   std::vector<std::uint32_t> order;                  // extracted triangles, in walk order
-  std::vector<std::uint32_t> component_of;
   std::vector<char> vertex_used(n, 0);
   auto oriented = [&](std::uint32_t t) {
     Triangle tri = cand[t];
@@ -204,25 +249,27 @@ Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std:
     return tri;
   };
   auto normalOf = [&](const Triangle& tri) { return triangleNormal(points, tri); };
-  std::uint32_t component = 0;
+  // Best first (BendQueue): orientation spreads across the flattest edges before it crosses a
+  // sharp turn, so a sliver or a chord across a thin part that the walk meets early cannot turn
+  // the rest of the surface inside out; the surface meets it from all sides first.
+  BendQueue queue;
   auto walk = [&](std::uint32_t seed, signed char seed_orient) {
-    std::deque<std::uint32_t> queue;
-    orient[seed] = seed_orient;
-    queue.push_back(seed);
-    std::size_t count = 0;
-    while (!queue.empty())
+    queue.push(0.0, seed, seed_orient);
+    BendQueue::Entry e;
+    while (queue.pop(e))
     {
-      const std::uint32_t t = queue.front();
-      queue.pop_front();
+      const auto [t, o] = e;
+      if (orient[t] != 0)
+        continue;
+      orient[t] = o;
       order.push_back(t);
-      component_of.push_back(component);
-      ++count;
       const Triangle tri = oriented(t);
       const Eigen::Vector3d nrm = normalOf(tri);
       for (int k = 0; k < 3; ++k)
       {
         const std::uint32_t a = tri[k], b = tri[(k + 1) % 3], c = tri[(k + 2) % 3];
-        const std::uint32_t next = leastTurning(points, cand, edges, alive, t, a, b, c, nrm);
+        double turn = 0.0;
+        const std::uint32_t next = leastTurning(points, cand, edges, alive, t, a, b, c, nrm, &turn);
         if (next == kNone || orient[next] != 0)
           continue;
         // Consistent orientation: next must traverse b → a.
@@ -231,12 +278,9 @@ Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std:
         for (int j = 0; j < 3; ++j)
           if (s[j] == b && s[(j + 1) % 3] == a)
             has_ba = true;
-        orient[next] = has_ba ? 1 : -1;
-        queue.push_back(next);
+        queue.push(std::abs(kPi - turn), next, static_cast<signed char>(has_ba ? 1 : -1));
       }
     }
-    ++component;
-    return count;
   };
 
   // Seeds: first the live triangle at the extreme-x hull vertex, oriented along its outward axis;

@@ -17,7 +17,9 @@
 //      3π/2) are removed, and so are dangling triangles (two free edges). A triangle with one free
 //      edge is kept: removing those would erode a noisy surface from every small hole.
 //   6. Extraction: a walk from a hull triangle oriented outwards; across each edge the walk takes
-//      the first triangle met when turning towards the outside, oriented consistently.
+//      the first triangle met when turning towards the outside, oriented consistently, the
+//      flattest crossings first (so a sliver or a chord across a thin part, met early, cannot
+//      turn the rest of the surface inside out).
 //   7. Clean-up: an edge keeps at most two triangles, a vertex keeps its largest fan of triangles,
 //      so the result is an oriented 2-manifold (possibly with boundary); each piece this leaves
 //      after the first takes the orientation of the surface around it; notches are closed with
