@@ -313,8 +313,8 @@ std::vector<char> pruneCandidates(const std::vector<Eigen::Vector3d>& points, co
                                   const EdgeIndex& edges, const CoconeParameters& params, CoconeStats& st);
 
 /// Step 6: walk the live candidates into oriented pieces, each edge crossed to the neighbour that
-/// turns least, best first (the flattest crossing first); seeds: first the hull's extreme-x
-/// vertex, then any unused triangle.
+/// turns least, best first (the flattest crossing first); seeds: first the hull's two extreme-x
+/// vertices (walked together), then any unused triangle.
 Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std::vector<Triangle>& cand,
                           const EdgeIndex& edges, const std::vector<char>& alive, const Poles& poles);
 

@@ -190,48 +190,55 @@ private:
   int current_ = 0;
 };
 
-/// The seed of the first piece: the live triangle at the extreme-x hull vertex most aligned with
-/// that vertex's axis; kNone when no hull vertex has a live triangle.
-std::uint32_t hullSeed(const std::vector<Eigen::Vector3d>& points, const std::vector<Triangle>& cand,
-                       const std::vector<char>& alive, const Poles& poles)
+/// The seeds of the first piece: at the hull vertex of largest x, then at the one of smallest x,
+/// the live triangle most aligned with that vertex's axis (a triangle once); none when no hull
+/// vertex has a live triangle.
+std::vector<std::uint32_t> hullSeeds(const std::vector<Eigen::Vector3d>& points, const std::vector<Triangle>& cand,
+                                     const std::vector<char>& alive, const Poles& poles)
 {
   const std::size_t n = points.size();
   const auto& is_hull = poles.is_hull;
   const auto& axis = poles.axis;
-  std::uint32_t best_v = kNone;
   std::vector<std::uint32_t> first_tri(n, kNone);
   for (std::uint32_t t = 0; t < cand.size(); ++t)
     if (alive[t])
       for (std::uint32_t x : cand[t])
         if (first_tri[x] == kNone)
           first_tri[x] = t;
-  for (std::uint32_t v = 0; v < n; ++v)
-    if (first_tri[v] != kNone && is_hull[v] && (best_v == kNone || points[v].x() > points[best_v].x()))
-      best_v = v;
-  if (best_v == kNone)
-    return kNone;
-  // The triangle at best_v most aligned with its axis.
-  std::uint32_t seed = kNone;
-  double align = -1;
-  for (std::uint32_t t = 0; t < cand.size(); ++t)
+  std::vector<std::uint32_t> seeds;
+  for (const double sign : {1.0, -1.0})
   {
-    if (!alive[t] || (cand[t][0] != best_v && cand[t][1] != best_v && cand[t][2] != best_v))
-      continue;
-    const Eigen::Vector3d nrm = triangleNormal(points, cand[t]).normalized();
-    const double al = std::abs(nrm.dot(axis[best_v]));
-    if (al > align)
+    std::uint32_t best_v = kNone;
+    for (std::uint32_t v = 0; v < n; ++v)
+      if (first_tri[v] != kNone && is_hull[v] && (best_v == kNone || sign * points[v].x() > sign * points[best_v].x()))
+        best_v = v;
+    if (best_v == kNone)
+      return seeds;
+    // The triangle at best_v most aligned with its axis.
+    std::uint32_t seed = kNone;
+    double align = -1;
+    for (std::uint32_t t = 0; t < cand.size(); ++t)
     {
-      align = al;
-      seed = t;
+      if (!alive[t] || !holds(cand[t], best_v))
+        continue;
+      const Eigen::Vector3d nrm = triangleNormal(points, cand[t]).normalized();
+      const double al = std::abs(nrm.dot(axis[best_v]));
+      if (al > align)
+      {
+        align = al;
+        seed = t;
+      }
     }
+    if (std::find(seeds.begin(), seeds.end(), seed) == seeds.end())
+      seeds.push_back(seed);
   }
-  return seed;
+  return seeds;
 }
 }  // namespace
 
 /// Step 6: walk the live candidates into oriented pieces, each edge crossed to the neighbour that
 /// turns least, best first (the flattest crossing first: BendQueue); seeds: first the hull's
-/// extreme-x vertex, then any unused triangle.
+/// two extreme-x vertices, then any unused triangle.
 Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std::vector<Triangle>& cand,
                           const EdgeIndex& edges, const std::vector<char>& alive, const Poles& poles)
 {
@@ -253,8 +260,9 @@ Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std:
   // sharp turn, so a sliver or a chord across a thin part that the walk meets early cannot turn
   // the rest of the surface inside out; the surface meets it from all sides first.
   BendQueue queue;
-  auto walk = [&](std::uint32_t seed, signed char seed_orient) {
-    queue.push(0.0, seed, seed_orient);
+  auto walk = [&](const std::vector<std::pair<std::uint32_t, signed char>>& seeds) {
+    for (const auto& [seed, seed_orient] : seeds)
+      queue.push(0.0, seed, seed_orient);
     BendQueue::Entry e;
     while (queue.pop(e))
     {
@@ -283,8 +291,10 @@ Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std:
     }
   };
 
-  // Seeds: first the live triangle at the extreme-x hull vertex, oriented along its outward axis;
-  // then any live triangle none of whose vertices is used yet.
+  // Seeds: first the live triangles at the two extreme-x hull vertices, each oriented along its
+  // outward axis, walked together (two fronts: where a thin part turns one of them inside out, the
+  // other has claimed the far side already); then any live triangle none of whose vertices is
+  // used yet.
   {
     auto orientFor = [&](std::uint32_t t) -> signed char {
       const Eigen::Vector3d nrm = normalOf(cand[t]);
@@ -294,10 +304,13 @@ Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std:
           out += axis[x];
       return out.dot(nrm) < 0 ? -1 : 1;
     };
-    const std::uint32_t seed = hullSeed(points, cand, alive, poles);
-    if (seed != kNone)
+    const std::vector<std::uint32_t> seeds = hullSeeds(points, cand, alive, poles);
+    if (!seeds.empty())
     {
-      walk(seed, orientFor(seed));
+      std::vector<std::pair<std::uint32_t, signed char>> oriented_seeds;
+      for (const std::uint32_t seed : seeds)
+        oriented_seeds.emplace_back(seed, orientFor(seed));
+      walk(oriented_seeds);
       for (std::size_t k = 0; k < order.size(); ++k)
         for (std::uint32_t x : cand[order[k]])
           vertex_used[x] = 1;
@@ -309,7 +322,7 @@ Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std:
       if (vertex_used[cand[t][0]] || vertex_used[cand[t][1]] || vertex_used[cand[t][2]])
         continue;
       const std::size_t before = order.size();
-      walk(t, orientFor(t));
+      walk({{t, orientFor(t)}});
       for (std::size_t k = before; k < order.size(); ++k)
         for (std::uint32_t x : cand[order[k]])
           vertex_used[x] = 1;
