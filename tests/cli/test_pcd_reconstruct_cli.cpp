@@ -62,6 +62,19 @@ protected:
     return path(name);
   }
 
+  /// `pcd_simplify --target-ratio RATIO --mesh` of the shared `shape`'s scan; returns the mesh's
+  /// path, empty when the shared data is missing.
+  std::string simplifiedMesh(const std::string& shape, const std::string& ratio) const
+  {
+    const std::string in = kShared + "/" + shape + "_scan.pcd";
+    if (!fs::exists(in))
+      return {};
+    const std::string ply = path(shape + ratio + ".ply");
+    const RunResult r = run(kSimplify, in + " " + path(shape + ratio + ".pcd") + " --target-ratio " + ratio + " --mesh " + ply);
+    EXPECT_EQ(r.code, 0) << r.err;
+    return ply;
+  }
+
   void expectOnly(const std::set<std::string>& names) const
   {
     for (const auto& e : fs::directory_iterator(dir_))
@@ -81,6 +94,15 @@ MeshTopology plyTopology(const std::string& file, std::size_t* vertices = nullpt
   if (vertices)
     *vertices = n;
   return analyzeTopology(n, tris);
+}
+
+/// A closed 2-manifold in one piece with Euler characteristic `euler`.
+void expectClosedPiece(const std::string& ply, long euler)
+{
+  const MeshTopology t = plyTopology(ply);
+  EXPECT_TRUE(t.isClosedManifold()) << ply << ": boundary edges " << t.boundary_edges << " of " << t.edges;
+  EXPECT_EQ(t.euler_characteristic, euler) << ply;
+  EXPECT_EQ(t.components, 1u) << ply;
 }
 
 /// The signed volume of each component (through shared edges) of a PLY mesh: positive when its
@@ -319,20 +341,15 @@ TEST_F(MeshCli, SimplifiedClosedShapesAreMeshedWithoutHoles)
   // (the earlier default) the same points leave holes.
   for (const auto& [shape, euler] : {std::pair<std::string, long>{"spot", 2}, {"fertility", -6}})
   {
-    const std::string in = kShared + "/" + shape + "_scan.pcd";
-    if (!fs::exists(in))
+    const std::string ply = simplifiedMesh(shape, "0.1");
+    if (ply.empty())
       GTEST_SKIP() << "shared data missing";
-    const std::string pcd = path(shape + ".pcd"), ply = path(shape + ".ply"), few = path(shape + "8.ply");
-    RunResult r = run(kSimplify, in + " " + pcd + " --target-ratio 0.1 --mesh " + ply);
-    ASSERT_EQ(r.code, 0) << r.err;
-    const MeshTopology t = plyTopology(ply);
-    EXPECT_TRUE(t.isClosedManifold()) << shape << ": boundary edges " << t.boundary_edges << " of " << t.edges;
-    EXPECT_EQ(t.euler_characteristic, euler) << shape;
-    EXPECT_EQ(t.components, 1u) << shape;
+    expectClosedPiece(ply, euler);
     // The points before the relaxation (METHOD.md 4), less even: closed by the filling, and not with
     // loops of at most 8 edges closed.
+    const std::string in = kShared + "/" + shape + "_scan.pcd", few = path(shape + "8.ply");
     const std::string plain = path(shape + "_plain.pcd"), plain_ply = path(shape + "_plain.ply");
-    r = run(kSimplify, in + " " + plain + " --target-ratio 0.1 --no-relax --mesh " + plain_ply);
+    RunResult r = run(kSimplify, in + " " + plain + " --target-ratio 0.1 --no-relax --mesh " + plain_ply);
     ASSERT_EQ(r.code, 0) << r.err;
     EXPECT_TRUE(plyTopology(plain_ply).isClosedManifold()) << shape;
     r = run(kReconstruct, plain + " " + few + " --fill-holes 8");
@@ -351,22 +368,16 @@ TEST_F(MeshCli, CadPartsSimplifiedMeshClosedAndFacingOut)
   // two orientations met; best first from one seed, the spool at 3% −43%).
   for (const auto& [shape, euler] : {std::pair<std::string, long>{"pinion", 0}, {"joint", -2}})
   {
-    const std::string in = kShared + "/" + shape + "_scan.pcd";
-    if (!fs::exists(in))
+    const std::string ply = simplifiedMesh(shape, "0.1");
+    if (ply.empty())
       GTEST_SKIP() << "shared data missing";
-    const std::string pcd = path(shape + ".pcd"), ply = path(shape + ".ply");
-    RunResult r = run(kSimplify, in + " " + pcd + " --target-ratio 0.1 --mesh " + ply);
-    ASSERT_EQ(r.code, 0) << r.err;
-    const MeshTopology t = plyTopology(ply);
-    EXPECT_TRUE(t.isClosedManifold()) << shape << ": boundary edges " << t.boundary_edges << " of " << t.edges;
-    EXPECT_EQ(t.euler_characteristic, euler) << shape;
-    EXPECT_EQ(t.components, 1u) << shape;
+    expectClosedPiece(ply, euler);
     const std::vector<double> volumes = componentVolumes(ply);
     ASSERT_EQ(volumes.size(), 1u) << shape;
     EXPECT_GT(volumes[0], 0) << shape << " faces in";
   }
-  const std::string spool = kShared + "/spool_scan.pcd", reference = kShared + "/spool_mesh.ply";
-  if (!fs::exists(spool) || !fs::exists(reference))
+  const std::string reference = kShared + "/spool_mesh.ply";
+  if (!fs::exists(reference))
     GTEST_SKIP() << "shared data missing";
   double enclosed = 0.0;
   for (const double v : componentVolumes(reference))
@@ -374,9 +385,9 @@ TEST_F(MeshCli, CadPartsSimplifiedMeshClosedAndFacingOut)
   ASSERT_GT(enclosed, 0.0);
   for (const std::string ratio : {"0.1", "0.03"})
   {
-    const std::string pcd = path("spool" + ratio + ".pcd"), ply = path("spool" + ratio + ".ply");
-    RunResult r = run(kSimplify, spool + " " + pcd + " --target-ratio " + ratio + " --mesh " + ply);
-    ASSERT_EQ(r.code, 0) << r.err;
+    const std::string ply = simplifiedMesh("spool", ratio);
+    if (ply.empty())
+      GTEST_SKIP() << "shared data missing";
     const MeshTopology t = plyTopology(ply);
     EXPECT_TRUE(t.isManifold()) << ratio;
     EXPECT_LE(static_cast<double>(t.boundary_edges), 0.002 * static_cast<double>(t.edges)) << ratio;
