@@ -16,7 +16,8 @@
 //   5. Pruning: triangles at sharp edges (the triangles around an edge leave an angular gap above
 //      3π/2) are removed, and so are dangling triangles (two free edges). A triangle with one free
 //      edge is kept: removing those would erode a noisy surface from every small hole.
-//   6. Extraction: a walk from a hull triangle oriented outwards; across each edge the walk takes
+//   6. Extraction: a walk from the hull triangles at the two extreme-x vertices, oriented
+//      outwards, walked together; across each edge the walk takes
 //      the first triangle met when turning towards the outside, oriented consistently, the
 //      flattest crossings first (so a sliver or a chord across a thin part, met early, cannot
 //      turn the rest of the surface inside out).
