@@ -1137,6 +1137,7 @@ constexpr double kLayerShare = 0.01;
 constexpr double kLayerDistance = 0.5;
 }  // namespace
 
+/// Step 7, last part (cocone_detail.h): small pieces and second layers dropped.
 std::vector<Triangle> keepLargeComponents(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& spacing,
                                           const std::vector<Triangle>& out, const std::vector<char>& keep,
                                           const CoconeParameters& params, CoconeStats& st)

@@ -116,7 +116,8 @@ Eigen::Vector3d triangleNormal(const std::vector<Eigen::Vector3d>& points, const
 }
 
 /// The live candidate across edge a → b of triangle t (apex c, normal nrm) that turns least from
-/// t towards its outside; kNone when the edge has no other live triangle.
+/// t towards its outside; kNone when the edge has no other live triangle. `turn`, when given, gets
+/// its turning angle in (0, 2π] (π: flat, beyond π: a convex edge).
 std::uint32_t leastTurning(const std::vector<Eigen::Vector3d>& points, const std::vector<Triangle>& cand,
                            const EdgeIndex& edges, const std::vector<char>& alive, std::uint32_t t, std::uint32_t a,
                            std::uint32_t b, std::uint32_t c, const Eigen::Vector3d& nrm, double* turn = nullptr)
