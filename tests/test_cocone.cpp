@@ -555,6 +555,30 @@ TEST(CoconeSideNeighbours, EachSideHasTheOtherTriangleOfItsEdgeWhenExactlyTwoAre
   EXPECT_EQ(nbr[3 * 10 + 0], kNone);  // the left-out triangle
 }
 
+TEST(CoconeCleanUp, ASlitIsALoopNarrowerThanHalfItsSpacing)
+{
+  // A four-vertex loop 10 long and 2w wide (a rhombus: area 10 w, width w): a slit when w is below
+  // half the smallest spacing at its vertices, in any orientation and whichever vertex starts it.
+  using pcl_ecs::surface::detail::isSlit;
+  const Eigen::Matrix3d turn = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  for (const double w : {0.1, 0.45, 0.55, 3.0})
+  {
+    std::vector<Eigen::Vector3d> points = {{0, 0, 0}, {5, w, 0}, {10, 0, 0}, {5, -w, 0}};
+    for (Eigen::Vector3d& p : points)
+      p = turn * p + Eigen::Vector3d(4, -2, 7);
+    std::vector<double> spacing = {1.0, 1.5, 2.0, 1.2};
+    SCOPED_TRACE(w);
+    EXPECT_EQ(isSlit(points, spacing, {0, 1, 2, 3}), w < 0.5);
+    EXPECT_EQ(isSlit(points, spacing, {2, 1, 0, 3}), w < 0.5);
+    spacing[2] = 0.1;  // the smallest spacing decides
+    EXPECT_EQ(isSlit(points, spacing, {1, 2, 3, 0}), w < 0.05);
+  }
+  // A unit square (width 1/√2) is no slit at spacing 1; at spacing 3 it is narrower than half of it.
+  const std::vector<Eigen::Vector3d> square = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  EXPECT_FALSE(isSlit(square, std::vector<double>(4, 1.0), {0, 1, 2, 3}));
+  EXPECT_TRUE(isSlit(square, std::vector<double>(4, 3.0), {0, 1, 2, 3}));
+}
+
 TEST(CoconeLargeComponents, ASmallClosedPieceLyingOnTheSurfaceIsASecondLayer)
 {
   // keepLargeComponents on a flat grid of 2,400 triangles (the largest piece, open) and four small

@@ -335,6 +335,26 @@ std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n)
 /// flanges at 3%: 1.22 × and 1.73 × farther from the reference than without the rule).
 constexpr std::size_t kNarrowedLoopRest = 8;
 
+}  // namespace
+
+bool isSlit(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& spacing,
+            const std::vector<std::uint32_t>& loop)
+{
+  Eigen::Vector3d twice_area = Eigen::Vector3d::Zero();
+  double longest = 0.0, finest = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < loop.size(); ++i)
+  {
+    twice_area += points[loop[i]].cross(points[loop[(i + 1) % loop.size()]]);
+    finest = std::min(finest, spacing[loop[i]]);
+    for (std::size_t j = i + 1; j < loop.size(); ++j)
+      longest = std::max(longest, (points[loop[i]] - points[loop[j]]).norm());
+  }
+  return 0.5 * twice_area.norm() < 0.5 * finest * longest;
+}
+
+namespace
+{
+
 /// The kept triangles at each vertex: a flat index of those kept when it is built, and short lists
 /// of the triangles added after that.
 class VertexTriangles
@@ -501,14 +521,20 @@ public:
   /// loop whose ears would all create an existing edge (or, with the ratio guard, an edge longer
   /// than max_edge_ratio × the local spacing: a gap in the sampling) is left open. With the ratio
   /// guard, a loop the clipping closed but for at most kNarrowedLoopRest vertices keeps the
-  /// triangles it made (CoconeStats::narrowed_loops): what stays open is the gap itself. `loops`
-  /// come from holeLoops. Returns the number of loops closed.
+  /// triangles it made (CoconeStats::narrowed_loops): what stays open is the gap itself, unless
+  /// it is a slit (isSlit), which is closed without the guard. `loops` come from holeLoops.
+  /// Returns the number of loops closed.
   std::size_t closeLoops(std::vector<std::vector<std::uint32_t>> loops, bool ratio_guard)
   {
     std::size_t closed_loops = 0;
     for (std::vector<std::uint32_t>& loop : loops)
     {
       std::vector<Triangle> added = clipLoop(loop, ratio_guard);
+      if (ratio_guard && loop.size() > 3 && loop.size() <= kNarrowedLoopRest && isSlit(points_, spacing_, loop))
+      {
+        std::vector<Triangle> rest = clipLoop(loop, false);
+        added.insert(added.end(), rest.begin(), rest.end());
+      }
       const bool narrowed = ratio_guard && loop.size() > 3 && loop.size() <= kNarrowedLoopRest;
       if (loop.size() != 3 && !narrowed)
         continue;  // nothing of this loop is committed

@@ -318,6 +318,12 @@ std::vector<char> pruneCandidates(const std::vector<Eigen::Vector3d>& points, co
 Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std::vector<Triangle>& cand,
                           const EdgeIndex& edges, const std::vector<char>& alive, const Poles& poles);
 
+/// Whether a boundary loop is a slit between two rows of samples rather than a gap in the
+/// sampling: its area over its longest chord (its width) is below half the smallest `spacing` at
+/// its vertices. The hole filling closes a slit the gap guard stopped (MeshFill::closeLoops).
+bool isSlit(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& spacing,
+            const std::vector<std::uint32_t>& loop);
+
 /// Step 7, last part: the components (through shared edges) of the triangles t with keep[t];
 /// those of fewer than params.min_component_triangles triangles are dropped, and so are the second
 /// layers over the largest one: a closed piece of at most 1% of its triangles whose every vertex
