@@ -283,10 +283,7 @@ Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std:
           continue;
         // Consistent orientation: next must traverse b → a.
         const Triangle& s = cand[next];
-        bool has_ba = false;
-        for (int j = 0; j < 3; ++j)
-          if (s[j] == b && s[(j + 1) % 3] == a)
-            has_ba = true;
+        const bool has_ba = s[(cornerOf(s, b) + 1) % 3] == a;
         queue.push(std::abs(kPi - turn), next, static_cast<signed char>(has_ba ? 1 : -1));
       }
     }
