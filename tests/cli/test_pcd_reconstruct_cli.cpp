@@ -18,6 +18,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <tuple>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -401,6 +402,23 @@ TEST_F(MeshCli, CadPartsSimplifiedMeshClosedAndFacingOut)
     EXPECT_TRUE(t.isManifold()) << ratio;
     EXPECT_LE(static_cast<double>(t.boundary_edges), 0.002 * static_cast<double>(t.edges)) << ratio;
     EXPECT_NEAR(enclosedVolume(ply), enclosed, 0.03 * enclosed) << ratio;
+  }
+}
+
+TEST_F(MeshCli, ClosedShapesAtThreePercentKeepTheirGenus)
+{
+  // The closed runs of docs/SURFACE.md that meet the whole bar at 3% (the spot's is in
+  // CutOffPiecesFaceOutAndJoinTheSurface) and the part at 10%: closed, one piece, the reference's
+  // Euler characteristic (the fertility genus 4, the pinion 1, the joint 2, the part 0), facing out.
+  for (const auto& [shape, ratio, euler] : {std::tuple<std::string, std::string, long>{"fertility", "0.03", -6},
+                                            {"pinion", "0.03", 0}, {"joint", "0.03", -2}, {"part", "0.03", 2},
+                                            {"part", "0.1", 2}})
+  {
+    const std::string ply = simplifiedMesh(shape, ratio);
+    if (ply.empty())
+      GTEST_SKIP() << "shared data missing";
+    expectClosedPiece(ply, euler);
+    EXPECT_GT(enclosedVolume(ply), 0.0) << ply << " faces in";
   }
 }
 
