@@ -335,21 +335,28 @@ std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n)
 /// flanges at 3%: 1.22 × and 1.73 × farther from the reference than without the rule).
 constexpr std::size_t kNarrowedLoopRest = 8;
 
+/// Twice the vector area of a closed polygon (its Newell vector): Σ p_i × p_(i+1).
+Eigen::Vector3d twiceVectorArea(const std::vector<Eigen::Vector3d>& points, const std::vector<std::uint32_t>& loop)
+{
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < loop.size(); ++i)
+    sum += points[loop[i]].cross(points[loop[(i + 1) % loop.size()]]);
+  return sum;
+}
+
 }  // namespace
 
 bool isSlit(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& spacing,
             const std::vector<std::uint32_t>& loop)
 {
-  Eigen::Vector3d twice_area = Eigen::Vector3d::Zero();
   double longest = 0.0, finest = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < loop.size(); ++i)
   {
-    twice_area += points[loop[i]].cross(points[loop[(i + 1) % loop.size()]]);
     finest = std::min(finest, spacing[loop[i]]);
     for (std::size_t j = i + 1; j < loop.size(); ++j)
       longest = std::max(longest, (points[loop[i]] - points[loop[j]]).norm());
   }
-  return 0.5 * twice_area.norm() < 0.5 * finest * longest;
+  return 0.5 * twiceVectorArea(points, loop).norm() < 0.5 * finest * longest;
 }
 
 namespace
@@ -530,12 +537,13 @@ public:
     for (std::vector<std::uint32_t>& loop : loops)
     {
       std::vector<Triangle> added = clipLoop(loop, ratio_guard);
-      if (ratio_guard && loop.size() > 3 && loop.size() <= kNarrowedLoopRest && isSlit(points_, spacing_, loop))
+      auto smallRest = [&] { return ratio_guard && loop.size() > 3 && loop.size() <= kNarrowedLoopRest; };
+      if (smallRest() && isSlit(points_, spacing_, loop))
       {
         std::vector<Triangle> rest = clipLoop(loop, false);
         added.insert(added.end(), rest.begin(), rest.end());
       }
-      const bool narrowed = ratio_guard && loop.size() > 3 && loop.size() <= kNarrowedLoopRest;
+      const bool narrowed = smallRest();
       if (loop.size() != 3 && !narrowed)
         continue;  // nothing of this loop is committed
       if (narrowed)
@@ -597,12 +605,9 @@ public:
     shape.reserve(loops.size());
     for (const auto& loop : loops)
     {
-      LoopShape ls{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 0.0};
-      for (std::size_t i = 0; i < loop.size(); ++i)
-      {
-        ls.centre += points[loop[i]];
-        ls.area += points[loop[i]].cross(points[loop[(i + 1) % loop.size()]]);
-      }
+      LoopShape ls{Eigen::Vector3d::Zero(), twiceVectorArea(points, loop), 0.0};
+      for (const std::uint32_t v : loop)
+        ls.centre += points[v];
       ls.centre /= static_cast<double>(loop.size());
       for (std::uint32_t v : loop)
         ls.radius = std::max(ls.radius, (points[v] - ls.centre).norm());
@@ -1036,9 +1041,7 @@ private:
   std::vector<Triangle> clipLoop(std::vector<std::uint32_t>& loop, bool ratio_guard) const
   {
     const auto& points = points_;
-    Eigen::Vector3d loop_normal = Eigen::Vector3d::Zero();
-    for (std::size_t i = 0; i < loop.size(); ++i)
-      loop_normal += points[loop[i]].cross(points[loop[(i + 1) % loop.size()]]);
+    const Eigen::Vector3d loop_normal = twiceVectorArea(points, loop);
     std::vector<Triangle> added;
     std::unordered_set<std::uint64_t> chords;
     while (loop.size() > 3)
