@@ -1002,6 +1002,77 @@ TEST(CoconeCleanUp, AHandleWhoseHolesTheGuardKeepsOpenStays)
   EXPECT_EQ(mesh.size(), walked.size());
 }
 
+TEST(CoconeCleanUp, AThinPartSampledAroundItsGirthIsKept)
+{
+  // The same handle, the spacing set from the longest edge of the cycles around the tube's ends.
+  // At 0.95 × that edge / kThinPartGirth it is a handle the walk made: cut (χ 2). At 2 × it the
+  // tube's samples lie far closer to each other than the sampling around them: a thin part of
+  // the object, kept (χ 0). (Between the two, the edge flips at one end of the tube make a cycle
+  // around it whose longest edge is twice as long, and that one is cut.)
+  using pcl_ecs::surface::detail::kThinPartGirth;
+  const UvSphere s = uvSphere(12, 24);
+  std::vector<std::uint32_t> ends;
+  const std::vector<Triangle> walked = sphereWithSmallHandle(s, ends);
+  double longest = 0.0;
+  for (int e = 0; e < 2; ++e)
+    for (int k = 0; k < 3; ++k)
+      longest = std::max(longest, (s.points[ends[3 * e + k]] - s.points[ends[3 * e + (k + 1) % 3]]).norm());
+  for (const double f : {2.0, 0.95})
+  {
+    SCOPED_TRACE(f);
+    pcl_ecs::surface::CoconeStats st;
+    const std::vector<Triangle> mesh = cleanUpOnly(s.points, f * longest / kThinPartGirth, walked, st);
+    const MeshTopology t = analyzeTopology(s.points.size(), mesh);
+    EXPECT_TRUE(t.isClosedManifold());
+    EXPECT_EQ(t.components, 1u);
+    EXPECT_EQ(t.euler_characteristic, f > 1.0 ? 0 : 2);
+    EXPECT_EQ(st.removed_handles, f > 1.0 ? 0u : 1u);
+  }
+}
+
+TEST(CoconeCleanUp, ARestNoWiderThanItsOwnEdgesIsClosed)
+{
+  // A closed box 0.5 high on a parallelogram, its base's two triangles taken out: a four-edge
+  // hole with sides 1 long and ends 0.15 (no slit at spacing 0.1: its width, 0.11-0.15, is over
+  // half the spacing). The gap guard (5 × 0.1) refuses both diagonals. Skewed by 0.3, the shorter
+  // diagonal (0.72) is shorter than the hole's sides: the hole is closed, a box again (χ 2). As a
+  // rectangle, both diagonals (1.01) are longer than every edge of the hole: it stays open.
+  for (const double skew : {0.3, 0.0})
+  {
+    SCOPED_TRACE(skew);
+    std::vector<Eigen::Vector3d> p = {{0, 0, 0}, {1, 0, 0}, {1 + skew, 0.15, 0}, {skew, 0.15, 0}};
+    for (int k = 0; k < 4; ++k)
+      p.push_back(p[static_cast<std::size_t>(k)] + Eigen::Vector3d(0, 0, 0.5));
+    for (Eigen::Vector3d& x : p)
+      x -= Eigen::Vector3d(0.5 + 0.5 * skew, 0.075, 0.25);  // centred: facesOut looks from the centre
+    std::vector<Triangle> walked = {{4, 5, 6}, {4, 6, 7}};  // the top, facing up
+    for (std::uint32_t k = 0; k < 4; ++k)
+    {
+      const std::uint32_t n = (k + 1) % 4;  // the side from k to n, facing out
+      walked.push_back({k, n, n + 4});
+      walked.push_back({k, n + 4, k + 4});
+    }
+    ASSERT_EQ(analyzeTopology(p.size(), walked).boundary_edges, 4u);
+    pcl_ecs::surface::CoconeStats st;
+    const std::vector<Triangle> mesh = cleanUpOnly(p, 0.1, walked, st);
+    const MeshTopology t = analyzeTopology(p.size(), mesh);
+    EXPECT_TRUE(t.isManifold());
+    if (skew > 0.0)
+    {
+      EXPECT_TRUE(t.isClosedManifold());
+      EXPECT_EQ(t.euler_characteristic, 2);
+      EXPECT_EQ(st.filled_triangles, 2u);
+      EXPECT_TRUE(facesOut(p, mesh));
+    }
+    else
+    {
+      EXPECT_EQ(t.boundary_edges, 4u);
+      EXPECT_EQ(st.filled_triangles, 0u);
+      EXPECT_EQ(st.narrowed_loops, 1u);
+    }
+  }
+}
+
 TEST(CoconeCleanUp, AHoleClosedButForAGapWiderThanTheGuardKeepsItsTriangles)
 {
   // A sphere without its northern cap: one planar hole, a regular 24-gon of circumradius ρ (ring 3

@@ -529,8 +529,9 @@ public:
   /// than max_edge_ratio × the local spacing: a gap in the sampling) is left open. With the ratio
   /// guard, a loop the clipping closed but for at most kNarrowedLoopRest vertices keeps the
   /// triangles it made (CoconeStats::narrowed_loops): what stays open is the gap itself, unless
-  /// it is a slit (isSlit), which is closed without the guard. `loops` come from holeLoops.
-  /// Returns the number of loops closed.
+  /// it is a slit (isSlit) or the clipping without the guard closes it with no chord longer than
+  /// its own longest edge (the mesh has edges that long there already): then it is closed.
+  /// `loops` come from holeLoops. Returns the number of loops closed.
   std::size_t closeLoops(std::vector<std::vector<std::uint32_t>> loops, bool ratio_guard)
   {
     std::size_t closed_loops = 0;
@@ -538,10 +539,15 @@ public:
     {
       std::vector<Triangle> added = clipLoop(loop, ratio_guard);
       auto smallRest = [&] { return ratio_guard && loop.size() > 3 && loop.size() <= kNarrowedLoopRest; };
-      if (smallRest() && isSlit(points_, spacing_, loop))
+      if (smallRest())
       {
-        std::vector<Triangle> rest = clipLoop(loop, false);
-        added.insert(added.end(), rest.begin(), rest.end());
+        std::vector<std::uint32_t> rest_loop = loop;
+        std::vector<Triangle> rest = clipLoop(rest_loop, false);
+        if (isSlit(points_, spacing_, loop) || (rest_loop.size() == 3 && chordsWithinEdges(loop, rest)))
+        {
+          added.insert(added.end(), rest.begin(), rest.end());
+          loop = std::move(rest_loop);
+        }
       }
       const bool narrowed = smallRest();
       if (loop.size() != 3 && !narrowed)
@@ -760,8 +766,10 @@ public:
   /// gap guard included; the change is kept when every hole closes whole and the Euler
   /// characteristic rose by at least 2 (a handle gone), and undone otherwise. Such cycles run
   /// around handles a triangle or two wide, where the walk joined two sheets at a sharp edge or a
-  /// corner; a tunnel of the surface sampled by more points around has none, one sampled by three
-  /// is cut too. Returns the handles removed.
+  /// corner; a tunnel of the surface sampled by more points around has none. A cycle whose edges
+  /// are well below the sample spacing at its vertices runs around a thin part of the object
+  /// sampled by three points around (kThinPartGirth): it is left as it is. Returns the handles
+  /// removed.
   std::size_t removeSmallHandles()
   {
     const std::size_t n = points_.size();
@@ -806,6 +814,8 @@ public:
     std::size_t removed = 0;
     for (const Triangle& cyc : cycles)
     {
+      if (aroundThinPart(cyc))
+        continue;  // a thin part of the object, not a handle the walk made
       if (!aroundHandle(cyc))
         continue;  // gone with an earlier handle, or separating
       for (int rings = 1; rings <= 2; ++rings)
@@ -860,6 +870,30 @@ private:
     bool kept = false;
     at_->forEach(v, [&](std::uint32_t t) { kept = kept || keep_[t] != 0; });
     return kept;
+  }
+
+  /// Whether the cycle of edges ab, bc, ca is shorter than a sampling of the surface around it
+  /// would make it (kThinPartGirth).
+  bool aroundThinPart(const Triangle& cyc) const
+  {
+    double longest = 0.0, finest = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 3; ++k)
+    {
+      longest = std::max(longest, (points_[cyc[k]] - points_[cyc[(k + 1) % 3]]).norm());
+      finest = std::min(finest, spacing_[cyc[k]]);
+    }
+    return longest < kThinPartGirth * finest;
+  }
+
+  /// Whether no chord (prev - next) of the triangles clipped from `loop` is longer than the
+  /// loop's longest edge.
+  bool chordsWithinEdges(const std::vector<std::uint32_t>& loop, const std::vector<Triangle>& clipped) const
+  {
+    double longest = 0.0;
+    for (std::size_t i = 0; i < loop.size(); ++i)
+      longest = std::max(longest, (points_[loop[i]] - points_[loop[(i + 1) % loop.size()]]).squaredNorm());
+    return std::all_of(clipped.begin(), clipped.end(),
+                       [&](const Triangle& t) { return (points_[t[0]] - points_[t[2]]).squaredNorm() <= longest; });
   }
 
   /// Whether the cycle of edges ab, bc, ca is there, no triangle, and does not separate the mesh:
