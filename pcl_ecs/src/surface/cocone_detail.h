@@ -330,7 +330,7 @@ bool isSlit(const std::vector<Eigen::Vector3d>& points, const std::vector<double
 /// The handles the walk makes between two sheets cross a gap of a spacing or more. The clean-up
 /// keeps such a handle (MeshFill::removeSmallHandles). On the closed shapes at 10% and 3% the
 /// one handle of this kind (the elephant at 3%, a thin solid bridge) has its longest edge at 0.54
-/// × that spacing, the ten handles the walk made (the camelhead, the joint, the pinion, the spool)
+/// × that spacing, the eleven handles the walk made (the camelhead, the joint, the pinion, the spool)
 /// at 1.32 × or more; any fraction from 0.6 to 1.25 cuts the same ones there.
 constexpr double kThinPartGirth = 0.75;
 
