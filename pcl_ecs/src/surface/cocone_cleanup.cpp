@@ -344,6 +344,16 @@ Eigen::Vector3d twiceVectorArea(const std::vector<Eigen::Vector3d>& points, cons
   return sum;
 }
 
+/// The longest edge of a closed polygon: its vertices in order, the last joined to the first.
+template <typename Loop>
+double longestEdge(const std::vector<Eigen::Vector3d>& points, const Loop& loop)
+{
+  double longest = 0.0;
+  for (std::size_t i = 0; i < loop.size(); ++i)
+    longest = std::max(longest, (points[loop[i]] - points[loop[(i + 1) % loop.size()]]).norm());
+  return longest;
+}
+
 }  // namespace
 
 bool isSlit(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& spacing,
@@ -876,24 +886,17 @@ private:
   /// would make it (kThinPartGirth).
   bool aroundThinPart(const Triangle& cyc) const
   {
-    double longest = 0.0, finest = std::numeric_limits<double>::infinity();
-    for (int k = 0; k < 3; ++k)
-    {
-      longest = std::max(longest, (points_[cyc[k]] - points_[cyc[(k + 1) % 3]]).norm());
-      finest = std::min(finest, spacing_[cyc[k]]);
-    }
-    return longest < kThinPartGirth * finest;
+    const double finest = std::min({spacing_[cyc[0]], spacing_[cyc[1]], spacing_[cyc[2]]});
+    return longestEdge(points_, cyc) < kThinPartGirth * finest;
   }
 
   /// Whether no chord (prev - next) of the triangles clipped from `loop` is longer than the
   /// loop's longest edge.
   bool chordsWithinEdges(const std::vector<std::uint32_t>& loop, const std::vector<Triangle>& clipped) const
   {
-    double longest = 0.0;
-    for (std::size_t i = 0; i < loop.size(); ++i)
-      longest = std::max(longest, (points_[loop[i]] - points_[loop[(i + 1) % loop.size()]]).squaredNorm());
+    const double longest = longestEdge(points_, loop);
     return std::all_of(clipped.begin(), clipped.end(),
-                       [&](const Triangle& t) { return (points_[t[0]] - points_[t[2]]).squaredNorm() <= longest; });
+                       [&](const Triangle& t) { return (points_[t[0]] - points_[t[2]]).norm() <= longest; });
   }
 
   /// Whether the cycle of edges ab, bc, ca is there, no triangle, and does not separate the mesh:
