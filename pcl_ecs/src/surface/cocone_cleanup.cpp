@@ -3,7 +3,9 @@
 #include "cocone_detail.h"
 
 #include <deque>
+#include <functional>
 #include <optional>
+#include <queue>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -127,27 +129,15 @@ std::size_t orientPieces(const std::vector<Eigen::Vector3d>& points, const std::
         for (int z = std::max(c0.z(), 0); z <= c1.z(); ++z)
           visit(keyOf(x, y, z));
   };
-  // Only the cells within reach of a later piece's vertices are looked at: the grid holds the
-  // vertices in those cells ("near"), and only their settled normals are needed.
-  std::vector<std::uint64_t> wanted;
-  for (std::uint32_t k = first[1]; k < first[pieces]; ++k)
-    for (std::uint32_t p : out[member[k]])
-      forCellsNear(p, [&](std::uint64_t key) { wanted.push_back(key); });
-  std::sort(wanted.begin(), wanted.end());
-  wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
-  std::vector<char> near(n, 0);
+  // The used vertices by cell, stably (the vertices of a cell in order of first use: a fixed
+  // order of the votes).
   std::vector<std::pair<std::uint64_t, std::uint32_t>> grid;
+  grid.reserve(used.size());
   for (std::uint32_t x : used)
   {
     const Eigen::Vector3i c = cellOf(points[x]);
-    const std::uint64_t key = keyOf(c.x(), c.y(), c.z());
-    if (std::binary_search(wanted.begin(), wanted.end(), key))
-    {
-      grid.emplace_back(key, x);
-      near[x] = 1;
-    }
+    grid.emplace_back(keyOf(c.x(), c.y(), c.z()), x);
   }
-  // By cell, stably (the vertices of a cell in order of first use: a fixed order of the votes).
   radixSortStable(grid, [](const std::pair<std::uint64_t, std::uint32_t>& g) { return g.first; });
 
   std::vector<Eigen::Vector3d> settled(n, Eigen::Vector3d::Zero()), own(n, Eigen::Vector3d::Zero());
@@ -159,8 +149,6 @@ std::size_t orientPieces(const std::vector<Eigen::Vector3d>& points, const std::
     for (std::uint32_t k = first[c]; k < first[c + 1]; ++k)
     {
       const std::uint32_t t = member[k];
-      if (c == 0 && !near[out[t][0]] && !near[out[t][1]] && !near[out[t][2]])
-        continue;  // the first piece's normals are only looked up near the others
       const Eigen::Vector3d nrm = (points[out[t][1]] - points[out[t][0]]).cross(points[out[t][2]] - points[out[t][0]]);
       for (std::uint32_t x : out[t])
       {
@@ -1072,50 +1060,84 @@ private:
   /// Ear clipping of one loop until three vertices are left or no ear is allowed: each step clips
   /// the ear (prev, cur, next) whose chord prev-next is shortest, among the convex ones (against
   /// the loop's Newell normal, in the orientation the new triangles take, so that the seal does
-  /// not fold over itself) or among all when none is convex; an ear whose chord is an edge of the
-  /// mesh or of this clipping, or (ratio_guard) longer than the gap guard, is never clipped.
-  /// `loop` is left as what remains; returns the triangles clipped, in order.
+  /// not fold over itself) or among all when none is convex, the earliest in the loop of equal
+  /// chords; an ear whose chord is an edge of the mesh or of this clipping, or (ratio_guard)
+  /// longer than the gap guard, is never clipped. The ears wait in two heaps (convex, any); a
+  /// clip changes only the two ears beside it, so a loop of n vertices takes O(n log n).
+  /// `loop` is left as what remains, in its order; returns the triangles clipped, in order.
   std::vector<Triangle> clipLoop(std::vector<std::uint32_t>& loop, bool ratio_guard) const
   {
     const auto& points = points_;
-    const Eigen::Vector3d loop_normal = twiceVectorArea(points, loop);
     std::vector<Triangle> added;
-    std::unordered_set<std::uint64_t> chords;
-    while (loop.size() > 3)
+    const auto n = static_cast<std::uint32_t>(loop.size());
+    if (n <= 3)
+      return added;
+    const Eigen::Vector3d loop_normal = twiceVectorArea(points, loop);
+    // The loop as a ring of positions in `loop`; an ear is known by the position of its tip.
+    std::vector<std::uint32_t> before(n), after(n), stamp(n, 0);
+    for (std::uint32_t i = 0; i < n; ++i)
     {
-      double best = std::numeric_limits<double>::infinity();
-      std::size_t best_i = loop.size();
-      for (int pass = 0; pass < 2 && best_i == loop.size(); ++pass)
-        for (std::size_t i = 0; i < loop.size(); ++i)
-        {
-          const std::uint32_t prev = loop[(i + loop.size() - 1) % loop.size()], next = loop[(i + 1) % loop.size()];
-          const std::uint64_t key = edgeKey(prev, next);
-          if (use_.count(key) || chords.count(key))
-            continue;
-          const double len = (points[prev] - points[next]).squaredNorm();
-          if (pass == 0 &&
-              (points[loop[i]] - points[prev]).cross(points[next] - points[prev]).dot(loop_normal) <= 0)
-            continue;  // a reflex ear: only when no convex one is left
-          if (ratio_guard && params_.max_edge_ratio > 0)
-          {
-            const double local = std::max({spacing_[prev], spacing_[loop[i]], spacing_[next]});
-            if (len > params_.max_edge_ratio * params_.max_edge_ratio * local * local)
-              continue;
-          }
-          if (len < best)
-          {
-            best = len;
-            best_i = i;
-          }
-        }
-      if (best_i == loop.size())
-        break;
-      const std::uint32_t prev = loop[(best_i + loop.size() - 1) % loop.size()], cur = loop[best_i],
-                          next = loop[(best_i + 1) % loop.size()];
-      added.push_back({prev, cur, next});
-      chords.insert(edgeKey(prev, next));
-      loop.erase(loop.begin() + static_cast<std::ptrdiff_t>(best_i));
+      before[i] = (i + n - 1) % n;
+      after[i] = (i + 1) % n;
     }
+    std::vector<char> clipped(n, 0);
+    struct Ear
+    {
+      double chord;  // squared
+      std::uint32_t at, stamp;
+      bool operator>(const Ear& o) const { return chord > o.chord || (chord == o.chord && at > o.at); }
+    };
+    using Heap = std::priority_queue<Ear, std::vector<Ear>, std::greater<Ear>>;
+    Heap convex, any;
+    std::unordered_set<std::uint64_t> chords;
+    // (Re)queues the ear at position i; an earlier entry of it goes stale. A chord made later can
+    // equal this ear's only when three vertices are left, where the clipping stops.
+    auto queueEar = [&](std::uint32_t i) {
+      ++stamp[i];
+      const std::uint32_t prev = loop[before[i]], cur = loop[i], next = loop[after[i]];
+      const std::uint64_t key = edgeKey(prev, next);
+      if (use_.count(key) || chords.count(key))
+        return;
+      const double len = (points[prev] - points[next]).squaredNorm();
+      if (ratio_guard && params_.max_edge_ratio > 0)
+      {
+        const double local = std::max({spacing_[prev], spacing_[cur], spacing_[next]});
+        if (len > params_.max_edge_ratio * params_.max_edge_ratio * local * local)
+          return;
+      }
+      const Ear ear{len, i, stamp[i]};
+      if ((points[cur] - points[prev]).cross(points[next] - points[prev]).dot(loop_normal) > 0)
+        convex.push(ear);
+      any.push(ear);
+    };
+    auto top = [&](Heap& heap) -> const Ear* {
+      while (!heap.empty() && (clipped[heap.top().at] || heap.top().stamp != stamp[heap.top().at]))
+        heap.pop();
+      return heap.empty() ? nullptr : &heap.top();
+    };
+    for (std::uint32_t i = 0; i < n; ++i)
+      queueEar(i);
+    for (std::uint32_t left = n; left > 3; --left)
+    {
+      const Ear* ear = top(convex);
+      if (ear == nullptr)
+        ear = top(any);
+      if (ear == nullptr)
+        break;
+      const std::uint32_t i = ear->at, b = before[i], a = after[i];
+      added.push_back({loop[b], loop[i], loop[a]});
+      chords.insert(edgeKey(loop[b], loop[a]));
+      clipped[i] = 1;
+      after[b] = a;
+      before[a] = b;
+      queueEar(b);
+      queueEar(a);
+    }
+    std::size_t kept = 0;
+    for (std::uint32_t i = 0; i < n; ++i)
+      if (!clipped[i])
+        loop[kept++] = loop[i];
+    loop.resize(kept);
     return added;
   }
 
