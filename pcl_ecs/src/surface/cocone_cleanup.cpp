@@ -139,8 +139,18 @@ std::size_t orientPieces(const std::vector<Eigen::Vector3d>& points, const std::
     grid.emplace_back(keyOf(c.x(), c.y(), c.z()), x);
   }
   radixSortStable(grid, [](const std::pair<std::uint64_t, std::uint32_t>& g) { return g.first; });
+  std::unordered_map<std::uint64_t, std::pair<std::uint32_t, std::uint32_t>> cell_range;  // [begin, end) in grid
+  for (std::uint32_t k = 0; k < grid.size(); ++k)
+  {
+    auto [it, fresh] = cell_range.try_emplace(grid[k].first, k, k + 1);
+    if (!fresh)
+      it->second.second = k + 1;
+  }
 
-  std::vector<Eigen::Vector3d> settled(n, Eigen::Vector3d::Zero()), own(n, Eigen::Vector3d::Zero());
+  // Each vertex's settled normal (the sum of its settled triangles' vector areas), that sum
+  // normalised, and the sum over the piece being settled.
+  std::vector<Eigen::Vector3d> settled(n, Eigen::Vector3d::Zero()), settled_unit(n, Eigen::Vector3d::Zero()),
+      own(n, Eigen::Vector3d::Zero());
   std::vector<std::uint32_t> verts;
   std::size_t reversed = 0;
   for (std::uint32_t c : rank)
@@ -167,19 +177,19 @@ std::size_t orientPieces(const std::vector<Eigen::Vector3d>& points, const std::
         const Eigen::Vector3d np = own[p].normalized();
         const double r = radiusAt(p);
         forCellsNear(p, [&](std::uint64_t key) {
-          auto it = std::lower_bound(
-              grid.begin(), grid.end(), key,
-              [](const std::pair<std::uint64_t, std::uint32_t>& g, std::uint64_t k) { return g.first < k; });
-          for (; it != grid.end() && it->first == key; ++it)
+          const auto cell = cell_range.find(key);
+          if (cell == cell_range.end())
+            return;
+          for (std::uint32_t k = cell->second.first; k < cell->second.second; ++k)
           {
-            const std::uint32_t q = it->second;
+            const std::uint32_t q = grid[k].second;
             if (q == p || settled[q].isZero())
               continue;
             const Eigen::Vector3d d = points[q] - points[p];
             const double dn = d.norm();
             if (dn > r)
               continue;
-            const Eigen::Vector3d nq = settled[q].normalized();
+            const Eigen::Vector3d& nq = settled_unit[q];
             if (std::abs(d.dot(np)) <= 0.5 * dn && std::abs(d.dot(nq)) <= 0.5 * dn)
               vote += np.dot(nq);
           }
@@ -197,6 +207,7 @@ std::size_t orientPieces(const std::vector<Eigen::Vector3d>& points, const std::
     for (std::uint32_t p : verts)
     {
       settled[p] += own[p];
+      settled_unit[p] = settled[p].normalized();
       own[p].setZero();
     }
   }
@@ -905,37 +916,47 @@ private:
     if (start.size() != 2)
       return false;
     const std::uint64_t cut[3] = {edgeKey(a, b), edgeKey(b, c), edgeKey(c, a)};
-    std::unordered_map<std::uint32_t, int> side;  // triangle -> 0 or 1: reached from start[side]
-    std::deque<std::uint32_t> queue[2];
+    // side_[t]: 0 or 1 when triangle t was reached from start[side], -1 otherwise (reset on the
+    // way out).
+    if (side_.size() < out_.size())
+      side_.resize(out_.size(), -1);
+    std::vector<std::uint32_t> queue[2];
+    std::size_t head[2] = {0, 0};
     for (int s = 0; s < 2; ++s)
     {
-      side.emplace(start[s], s);
+      side_[start[s]] = static_cast<std::int8_t>(s);
       queue[s].push_back(start[s]);
     }
+    bool met = false;
     std::size_t explored = 0;
-    while (!queue[0].empty() && !queue[1].empty() && explored < kHandleSearch)
-      for (int s = 0; s < 2; ++s)
+    while (!met && head[0] < queue[0].size() && head[1] < queue[1].size() && explored < kHandleSearch)
+      for (int s = 0; s < 2 && !met; ++s)
       {
-        const std::uint32_t t = queue[s].front();
-        queue[s].pop_front();
+        const std::uint32_t t = queue[s][head[s]++];
         ++explored;
-        for (int k = 0; k < 3; ++k)
+        for (int k = 0; k < 3 && !met; ++k)
         {
           const std::uint32_t x = out_[t][k], y = out_[t][(k + 1) % 3];
           const std::uint64_t key = edgeKey(x, y);
           if (key == cut[0] || key == cut[1] || key == cut[2])
             continue;
-          for (const std::uint32_t u : trianglesAt(x, y))
-          {
-            const auto [it, fresh] = side.emplace(u, s);
-            if (fresh)
+          at_->forEach(x, [&](std::uint32_t u) {
+            if (met || !keep_[u] || !holds(out_[u], y))
+              return;
+            if (side_[u] < 0)
+            {
+              side_[u] = static_cast<std::int8_t>(s);
               queue[s].push_back(u);
-            else if (it->second != s)
-              return true;
-          }
+            }
+            else if (side_[u] != s)
+              met = true;
+          });
         }
       }
-    return false;
+    for (int s = 0; s < 2; ++s)
+      for (const std::uint32_t t : queue[s])
+        side_[t] = -1;
+    return met;
   }
 
   /// removeSmallHandles' change at one cycle: the kept triangles within `rings` rings of its
@@ -1187,6 +1208,7 @@ private:
   CoconeStats& st_;
   std::unordered_map<std::uint64_t, EdgeUse> use_;
   std::optional<VertexTriangles> at_;  // while removeSmallHandles runs: the triangles at each vertex
+  mutable std::vector<std::int8_t> side_;  // aroundHandle's search: the side each triangle was reached from
 };
 
 /// The point of triangle abc nearest to p (Ericson, Real-Time Collision Detection, 5.1.5).
@@ -1266,6 +1288,22 @@ std::vector<Triangle> keepLargeComponents(const std::vector<Eigen::Vector3d>& po
     for (std::uint32_t k = 0; k < 3; ++k)
       if (nbr[3 * static_cast<std::size_t>(t) + k] == kNone)
         open[uf.find(t)] = 1;
+  // The largest piece's triangles by their lowest x, and the widest of them along x (made when a
+  // closed piece is first tested).
+  std::vector<std::pair<double, std::uint32_t>> by_low_x;
+  double widest_x = 0.0;
+  auto largestByLowX = [&] {
+    for (std::uint32_t t = 0; t < kept.size(); ++t)
+      if (uf.find(t) == largest)
+      {
+        const Triangle& tri = kept[t];
+        const double x0 = std::min({points[tri[0]].x(), points[tri[1]].x(), points[tri[2]].x()});
+        const double x1 = std::max({points[tri[0]].x(), points[tri[1]].x(), points[tri[2]].x()});
+        by_low_x.emplace_back(x0, t);
+        widest_x = std::max(widest_x, x1 - x0);
+      }
+    std::sort(by_low_x.begin(), by_low_x.end());
+  };
   for (std::uint32_t r = 0; r < kept.size(); ++r)
   {
     if (members[r].empty() || open[r])
@@ -1290,11 +1328,16 @@ std::vector<Triangle> keepLargeComponents(const std::vector<Eigen::Vector3d>& po
     lo.array() -= reach;
     hi.array() += reach;
     std::vector<double> nearest(verts.size(), std::numeric_limits<double>::infinity());
-    for (std::uint32_t t = 0; t < kept.size(); ++t)
+    if (by_low_x.empty())
+      largestByLowX();
+    // The largest piece's triangles whose box meets this one: their lowest x at most hi.x and
+    // their highest x at least lo.x, so their lowest x at least lo.x less the widest triangle
+    // (twice that: a margin for rounding; the box test below decides).
+    auto first = std::lower_bound(by_low_x.begin(), by_low_x.end(), lo.x() - 2 * widest_x,
+                                  [](const std::pair<double, std::uint32_t>& e, double x) { return e.first < x; });
+    for (; first != by_low_x.end() && first->first <= hi.x(); ++first)
     {
-      if (uf.find(t) != largest)
-        continue;
-      const Triangle& tri = kept[t];
+      const Triangle& tri = kept[first->second];
       const Eigen::Vector3d tlo = points[tri[0]].cwiseMin(points[tri[1]]).cwiseMin(points[tri[2]]);
       const Eigen::Vector3d thi = points[tri[0]].cwiseMax(points[tri[1]]).cwiseMax(points[tri[2]]);
       if ((tlo.array() > hi.array()).any() || (thi.array() < lo.array()).any())
