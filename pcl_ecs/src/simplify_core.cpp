@@ -537,10 +537,34 @@ constexpr double kTargetFeatureSpacing = 0.5;
 /// 0.80-0.97 ×, surface 0.96-1.26 × (median 1.01).
 constexpr double kTargetFeatureShare = 1.0 / 3.0;
 
+/// A target size of at least the input's points (after merging coincident ones): every point is
+/// an output point as it is (the feature points, and each other point as a ball of radius 0), at
+/// once. The output is then the input, and no larger: a search would only top a cover up with
+/// points that stand next to output points already.
+void keepEveryPoint(const CoverInput& in, const Parameters& params, CoreOutput& out)
+{
+  Summary& s = out.summary;
+  s.error_threshold = 0.0;
+  s.radius_cap_factor = params.radius_cap_factor;
+  out.cover = CoverOutput{};
+  out.cover.owner.assign(in.cloud.size(), -1);
+  for (std::size_t i = 0; i < in.cloud.size(); ++i)
+    if (!in.is_feature[i])
+      addPointBall(in, params, 0.0, i, out.cover);
+  s.size_points = out.cover.balls.size();
+  s.target_iterations = 0;
+  s.cover_passes = 0;
+}
+
 /// The cover whose size is closest to params.target_size (stages/target_search.h).
 void coverToTargetSize(const CoverInput& all_features, const Parameters& params, const Report& report, CoreOutput& out)
 {
   Summary& s = out.summary;
+  if (params.target_size >= all_features.cloud.size())
+  {
+    keepEveryPoint(all_features, params, out);
+    return;
+  }
   const double target = static_cast<double>(params.target_size);
   const double nonfeature = static_cast<double>(all_features.cloud.size() - s.feature_points);
   // Feature points one per kTargetFeatureSpacing × the spacing the whole target implies (in

@@ -201,11 +201,14 @@ BallAttributes ballAttributes(const std::vector<int>& members, const std::vector
 
 namespace
 {
+/// The owner of a point a neighbouring tile covers (CoverInput::pre_covered).
+constexpr std::int64_t kPreCovered = std::numeric_limits<std::int64_t>::max();
+
 /// Steps 4-6 for the centre c: solve the ball, then claim (owner = ball_key) the points it
 /// covers that nobody owns yet. Returns the ball.
 CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_threshold,
                    double cap, int c, std::int64_t ball_key, std::vector<std::int64_t>& owner,
-                   Scratch& w)
+                   std::vector<std::uint8_t>& taken, Scratch& w)
 {
   const std::size_t cs = static_cast<std::size_t>(c);
   CoverBall ball;
@@ -286,17 +289,6 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
       ballAttributes(w.members, w.offsets, w.distances, v_offset, in.normals, c, sol.radius);
   ball.attribute_source = attributes.source;
   ball.normal = attributes.normal;
-  // A minimiser the quadratic could not place on the surface (a large ball around a bend, whose
-  // tangent planes meet off it, or a noisy one) gives way to that member, a point of the surface
-  // (representative_fit.h); to c when the member lies as far from c as representativeOffset allows.
-  if (params.representative_fit && offset && !ball.fitted && attributes.source >= 0)
-  {
-    const Eigen::Vector3d member = in.cloud[attributes.source].getVector3fMap().cast<double>();
-    const bool within = (member - centre).norm() < params.max_representative_offset * sol.radius;
-    ball.used_centre = !within;
-    ball.representative = within ? member : centre;
-    ball.attribute_source = within ? attributes.source : c;
-  }
   const Eigen::Vector3d nc = in.normals[cs].cast<double>();
 
   // Step 6: cover c and the members projected strictly inside the hull.
@@ -321,6 +313,40 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
       if (w.inside[m])
         claim(w.members[m]);
   }
+
+  // A minimiser the quadratic could not place on the surface (a large ball around a bend, whose
+  // tangent planes meet off it, or a noisy one) gives way to the member nearest to it, a point of
+  // the surface (representative_fit.h); to c when that member lies as far from c as
+  // representativeOffset allows. Only a covered member that no other ball stands at (`taken`) is
+  // chosen: a point left uncovered could start a ball later, at the same place, and a point a
+  // neighbouring tile covers may stand for a ball there. c is always one (it started this ball),
+  // so no two output points coincide; what is covered does not depend on the choice.
+  if (params.representative_fit && offset && !ball.fitted)
+  {
+    int chosen = c;
+    double best = v_offset.squaredNorm();
+    for (std::size_t m = 0; m < w.members.size(); ++m)
+    {
+      const int p = w.members[m];
+      const auto ps = static_cast<std::size_t>(p);
+      if (taken[ps] || owner[ps] < 0 || owner[ps] == kPreCovered)
+        continue;
+      const double d = (w.offsets[m] - v_offset).squaredNorm();
+      if (d < best || (d == best && p < chosen))
+      {
+        best = d;
+        chosen = p;
+      }
+    }
+    const Eigen::Vector3d member = in.cloud[chosen].getVector3fMap().cast<double>();
+    const bool within = (member - centre).norm() < params.max_representative_offset * sol.radius;
+    ball.used_centre = !within;
+    ball.representative = within ? member : centre;
+    ball.attribute_source = within ? chosen : c;
+    taken[static_cast<std::size_t>(within ? chosen : c)] = 1;
+  }
+  else if (ball.used_centre)
+    taken[cs] = 1;
   return ball;
 }
 /// A point that may start a ball (step 3): not a feature, allowed (a tile's own point), not
@@ -451,9 +477,10 @@ CellOrder cellOrder(const CoverInput& in, const Parameters& params, double cap, 
 
 /// The balls of the cells of colours [from, to), colour after colour (cells of one colour in
 /// parallel), added to `cell_balls`. Ball keys while running: cell index << 32 | index in the
-/// cell; `owner` holds them.
+/// cell; `owner` holds them, `taken` the points that are representatives (makeBall).
 void coverCells(const CoverInput& in, const Parameters& params, double error_threshold, double cap,
                 const CellOrder& order, int threads, int from, int to, std::vector<std::int64_t>& owner,
+                std::vector<std::uint8_t>& taken,
                 std::vector<std::vector<CoverBall>>& cell_balls)
 {
   const std::vector<std::size_t>& cell_begin = order.cell_begin;
@@ -496,14 +523,13 @@ void coverCells(const CoverInput& in, const Parameters& params, double error_thr
           if (owner[static_cast<std::size_t>(c)] >= 0)
             continue;
           const std::int64_t key = (static_cast<std::int64_t>(cell) << 32) | static_cast<std::int64_t>(balls.size());
-          balls.push_back(makeBall(in, params, error_threshold, cap, c, key, owner, w));
+          balls.push_back(makeBall(in, params, error_threshold, cap, c, key, owner, taken, w));
         }
       }
     }
   }
 }
 
-constexpr std::int64_t kPreCovered = std::numeric_limits<std::int64_t>::max();
 }  // namespace
 
 struct ColourCover::State
@@ -521,6 +547,7 @@ struct ColourCover::State
   int colours_done = 0;
   CellOrder order;
   std::vector<std::int64_t> owner;
+  std::vector<std::uint8_t> taken;  // points that are a ball's representative (makeBall)
   std::vector<std::vector<CoverBall>> cell_balls;
 };
 
@@ -538,6 +565,7 @@ ColourCover::ColourCover(const CoverInput& in, const Parameters& params, double 
     return;
   st.order = cellOrder(in, params, st.cap, lo, hi, st.threads);
   st.owner.assign(n, -1);
+  st.taken.assign(n, 0);
   if (in.pre_covered)
     for (std::size_t i = 0; i < n; ++i)
       if ((*in.pre_covered)[i])
@@ -561,7 +589,7 @@ void ColourCover::run(int colours)
   State& st = state();
   colours = std::min(8, colours);
   if (st.any_centre && colours > st.colours_done)
-    coverCells(st.in, st.params, st.error_threshold, st.cap, st.order, st.threads, st.colours_done, colours, st.owner,
+    coverCells(st.in, st.params, st.error_threshold, st.cap, st.order, st.threads, st.colours_done, colours, st.owner, st.taken,
                st.cell_balls);
   st.colours_done = std::max(st.colours_done, colours);
 }

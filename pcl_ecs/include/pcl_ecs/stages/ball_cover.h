@@ -11,8 +11,9 @@
 // Parameters::max_representative_offset × r or farther from c: then c itself (the paper's rule
 // is |x_min - c| < r: farther means a sharp region that slipped past the feature test). With
 // Parameters::representative_fit, the minimiser is moved onto the quadratic fitted to the ball's
-// points, or, where none fits, replaced by the member nearest to it (representative_fit.h). Its
-// attributes are those of the member nearest to it. One radius query per ball (re-issued larger
+// points, or, where none fits, replaced by the member nearest to it among the points the cover
+// has covered that no other ball stands at (representative_fit.h; c is always one of them, so
+// no two representatives coincide). Its attributes are those of the member nearest to it. One radius query per ball (re-issued larger
 // only if the bracket outgrows it) serves every bisection step and the coverage.
 //
 // Parallel and deterministic: the centres are bucketed into cells of side > 2·cap coloured by the

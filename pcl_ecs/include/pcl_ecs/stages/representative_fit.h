@@ -13,7 +13,9 @@
 // points within kCurvedBallFitResidual × r (RMS): a curved surface is fitted that closely, a
 // crease is not. A ball fitted by neither rule is represented by its member nearest to the
 // minimiser (ball_cover.cpp; the centre when that member lies max_representative_offset × r or
-// farther from it): an input point, on the surface. Where such a ball wraps round a bend (a leg
+// farther from it): an input point, on the surface. Only a member that is covered and that no
+// other ball stands at is taken (a neighbouring tile's point is not): two balls never stand at
+// one point, and a point one stands at never starts a ball later. Where such a ball wraps round a bend (a leg
 // of an animal scan at 1% kept) its tangent planes meet up to a third of r off the surface; on a
 // crease the minimiser lies on the edge and the member beside it. Chosen on the tuning half
 // (pcd_simplify --target-ratio 10/3/1%, pcl_ecs_eval) against the minimiser: output → mesh 0.91 ×
