@@ -15,6 +15,8 @@
 #include <pcl_ecs/surface/cocone.h>
 #include <pcl_ecs/version.h>
 
+#include <pcl/console/print.h>
+
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/string.h>
@@ -404,6 +406,9 @@ NB_MODULE(_core, m)
   m.doc() = "pcl_ecs: feature-preserving, error-controlled point cloud simplification (C++ core)";
   m.attr("__version__") = PCL_ECS_VERSION_STRING;
   m.attr("laz_supported") = pcl_ecs::io::lazSupported();
+  // Errors reach Python as exceptions carrying the library's message; PCL's console would print
+  // each one to stderr as well (the command-line tools silence it the same way).
+  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
   nb::class_<Parameters>(m, "Parameters", "Every parameter of the method, with the C++ library's defaults")
       .def(nb::init<>())
       .def_rw("error_threshold", &Parameters::error_threshold)

@@ -129,6 +129,17 @@ def test_unknown_keywords_and_bad_arrays_are_refused():
         pcl_ecs.simplify(np.zeros((5, 3)))  # fewer points than K + 1
 
 
+def test_an_error_is_the_exception_alone(capfd):
+    # The library's message comes back in the exception, and nothing is printed besides it.
+    capfd.readouterr()
+    with pytest.raises(ValueError, match="identical"):
+        pcl_ecs.simplify(np.ones((100, 3)))
+    with pytest.raises(ValueError, match="no finite points"):
+        pcl_ecs.simplify(np.full((100, 3), np.nan))
+    out, err = capfd.readouterr()
+    assert out == "" and err == "", err
+
+
 def test_nan_rows_are_dropped_as_in_cpp():
     pts = sphere_with_cap()
     clean = pcl_ecs.simplify(pts)
