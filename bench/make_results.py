@@ -297,7 +297,10 @@ def main():
              "The sharp-edge ratio is taken against the peers whose surface deviation is within 10% of the",
              "best peer's; the coverage ratio against farthest-point sampling (PCL's or fpsample's, the",
              "better). The inputs are split in two halves, each mixing CAD, organic and real scans: the",
-             "defaults are chosen on the tuning half, and the bar is read on the checking half.",
+             "defaults are chosen on the tuning half, and the bar is read on the checking half. A change of",
+             "your own, measured the same way on both halves (pcl_ecs against itself, no peers):",
+             "`python3 bench/ab.py --flags \"--alpha 9\"` (flags against the defaults) or",
+             "`python3 bench/ab.py --base-build DIR` (this build against another).",
              "",
              "| half | inputs |",
              "| --- | --- |"]

@@ -1,0 +1,103 @@
+#!/usr/bin/env python3
+"""A change, measured the way docs/RESULTS.md judges it: two pcd_simplify builds (or one build with
+two sets of flags) run on every shared scan of the halves at 10%, 3% and 1% kept (--target-ratio),
+each output scored by pcl_ecs_eval (with the reference mesh where there is one), and per half and
+metric the median and the range of new ÷ base. Below 1 the change helps that metric.
+
+    python3 bench/ab.py --flags "--alpha 9"                       # flags against the defaults
+    python3 bench/ab.py --base-build /tmp/old-build               # this build against another
+    python3 bench/ab.py --flags "--alpha 9" --only kinect,part --runs --json ab.json
+
+Choose on the tuning half, read on the checking half (docs/RESULTS.md). A run that fails is
+reported and left out of both sides. Takes about 5 minutes a side on a 2-core machine.
+"""
+import argparse
+import json
+import os
+import shlex
+import statistics
+import subprocess
+import sys
+import tempfile
+
+from rules import HALVES, METRICS, RATIOS, ROOT, run
+
+
+def measure(build, flags, data, work, runs):
+    """pcl_ecs_eval's metrics of every (input, ratio) in `runs`, or the error of the run."""
+    scores = {}
+    for half, src, mesh, ratio in runs:
+        try:
+            scores[(src, ratio)] = run(build, data, work, src, mesh, ratio, flags)
+        except subprocess.CalledProcessError as e:
+            scores[(src, ratio)] = None
+            print(f"{build}: {src} at {ratio:g} failed (exit {e.returncode}): {' '.join(e.cmd)}", file=sys.stderr)
+    return scores
+
+
+def summary(runs, base, new, show_runs):
+    lines = []
+    for half in dict.fromkeys(h for h, _, _, _ in runs):
+        lines += [f"{half} half: new ÷ base, median (range, worst run)"]
+        if not any(h == half and base.get((src, r)) and new.get((src, r)) for h, src, _, r in runs):
+            lines.append("  no run completed on both sides")
+        for key, title in METRICS:
+            ratios = []
+            for h, src, _, ratio in runs:
+                a, b = base.get((src, ratio)), new.get((src, ratio))
+                if h == half and a and b and a.get(key) and b.get(key) is not None:
+                    ratios.append((b[key] / a[key], f"{src.split('.')[0]}@{ratio:g}"))
+            if not ratios:
+                continue
+            values = [r for r, _ in ratios]
+            worst = max(ratios)
+            lines.append(f"  {title:14s} {statistics.median(values):.3f} ({min(values):.2f}-{max(values):.2f}, "
+                         f"worst {worst[1]}) over {len(values)} runs")
+            if show_runs:
+                lines.append("    " + "  ".join(f"{name} {r:.2f}" for r, name in ratios))
+    return lines
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--build", default=os.path.join(ROOT, "build"), help="the build measured (new)")
+    ap.add_argument("--base-build", help="the build it is compared with (default: --build)")
+    ap.add_argument("--flags", default="", help="pcd_simplify flags of the new side, quoted")
+    ap.add_argument("--base-flags", default="", help="pcd_simplify flags of the base side, quoted")
+    ap.add_argument("--halves", default="tuning,checking", help="comma-separated: tuning, checking")
+    ap.add_argument("--ratios", default=",".join(str(r) for r in RATIOS), help="kept ratios, comma-separated")
+    ap.add_argument("--only", help="only inputs whose file name contains one of these, comma-separated")
+    ap.add_argument("--runs", action="store_true", help="print every run's ratio too")
+    ap.add_argument("--json", help="write every run's metrics, both sides, to this file")
+    ap.add_argument("--data", default=os.environ.get("PCL_ECS_SHARED_DATA_DIR", os.path.join(ROOT, "..", "shared", "data")))
+    args = ap.parse_args()
+    base_build = args.base_build or args.build
+    if base_build == args.build and args.flags == args.base_flags:
+        ap.error("nothing to compare: give --flags, --base-flags or --base-build")
+    for build in {args.build, base_build}:
+        for tool in ("pcd_simplify", "pcl_ecs_eval"):
+            if not os.access(os.path.join(build, "tools", tool), os.X_OK):
+                ap.error(f"{os.path.join(build, 'tools', tool)} is missing: build with -DPCL_ECS_BUILD_TOOLS=ON")
+    halves = args.halves.split(",")
+    unknown = [h for h in halves if h not in HALVES]
+    if unknown:
+        ap.error(f"unknown half {unknown[0]!r}: the halves are {', '.join(HALVES)}")
+    ratios = [float(r) for r in args.ratios.split(",")]
+    only = args.only.split(",") if args.only else None
+    runs = [(h, src, mesh, r) for h in halves for src, mesh in HALVES[h] for r in ratios
+            if not only or any(o in src for o in only)]
+    if not runs:
+        ap.error("no shared input matches --only")
+    with tempfile.TemporaryDirectory() as work:
+        base = measure(base_build, shlex.split(args.base_flags), args.data, work, runs)
+        new = measure(args.build, shlex.split(args.flags), args.data, work, runs)
+    print("\n".join(summary(runs, base, new, args.runs)))
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump([{"input": src, "half": h, "ratio": r, "base": base[(src, r)], "new": new[(src, r)]}
+                       for h, src, _, r in runs], f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
