@@ -172,22 +172,42 @@ std::optional<Eigen::Vector3d> representativeOffset(const RadiusSolution& sol, d
   return x;
 }
 
+namespace
+{
+/// The member nearest to `v_offset` (offsets from the centre) among those `eligible` accepts, ties
+/// to the lower index; `fallback` when none is nearer than `fallback_d2` (squared).
+template <class Eligible>
+int nearestMember(const std::vector<int>& members, const std::vector<Eigen::Vector3d>& offsets,
+                  const Eigen::Vector3d& v_offset, Eligible eligible, int fallback, double fallback_d2)
+{
+  int chosen = fallback;
+  double best = fallback_d2;
+  for (std::size_t m = 0; m < members.size(); ++m)
+  {
+    if (!eligible(members[m]))
+      continue;
+    const double d = (offsets[m] - v_offset).squaredNorm();
+    if (d < best || (d == best && members[m] < chosen))
+    {
+      best = d;
+      chosen = members[m];
+    }
+  }
+  return chosen;
+}
+}  // namespace
+
 BallAttributes ballAttributes(const std::vector<int>& members, const std::vector<Eigen::Vector3d>& offsets,
                               const std::vector<double>& distances, const Eigen::Vector3d& v_offset,
                               const NormalList& normals, int centre, double radius)
 {
   BallAttributes a;
+  a.source = nearestMember(members, offsets, v_offset, [](int) { return true; }, a.source,
+                           std::numeric_limits<double>::infinity());
   const Eigen::Vector3d nc = normals[static_cast<std::size_t>(centre)].cast<double>();
   Eigen::Vector3d normal_sum = Eigen::Vector3d::Zero();
-  double best = std::numeric_limits<double>::infinity();
   for (std::size_t m = 0; m < members.size(); ++m)
   {
-    const double d = (offsets[m] - v_offset).squaredNorm();
-    if (d < best || (d == best && members[m] < a.source))
-    {
-      best = d;
-      a.source = members[m];
-    }
     Eigen::Vector3d nm = normals[static_cast<std::size_t>(members[m])].cast<double>();
     if (nm.dot(nc) < 0.0)
       nm = -nm;
@@ -323,21 +343,11 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
   // so no two output points coincide; what is covered does not depend on the choice.
   if (params.representative_fit && offset && !ball.fitted)
   {
-    int chosen = c;
-    double best = v_offset.squaredNorm();
-    for (std::size_t m = 0; m < w.members.size(); ++m)
-    {
-      const int p = w.members[m];
+    auto eligible = [&](int p) {
       const auto ps = static_cast<std::size_t>(p);
-      if (taken[ps] || owner[ps] < 0 || owner[ps] == kPreCovered)
-        continue;
-      const double d = (w.offsets[m] - v_offset).squaredNorm();
-      if (d < best || (d == best && p < chosen))
-      {
-        best = d;
-        chosen = p;
-      }
-    }
+      return !taken[ps] && owner[ps] >= 0 && owner[ps] != kPreCovered;
+    };
+    const int chosen = nearestMember(w.members, w.offsets, v_offset, eligible, c, v_offset.squaredNorm());
     const Eigen::Vector3d member = in.cloud[chosen].getVector3fMap().cast<double>();
     const bool within = (member - centre).norm() < params.max_representative_offset * sol.radius;
     ball.used_centre = !within;
