@@ -24,9 +24,10 @@ from rules import HALVES, METRICS, RATIOS, ROOT, run
 
 
 def measure(build, flags, data, work, runs):
-    """pcl_ecs_eval's metrics of every (input, ratio) in `runs`, or the error of the run."""
+    """pcl_ecs_eval's metrics of every (input, ratio) in `runs`; None for a run that failed (its
+    command is printed to stderr)."""
     scores = {}
-    for half, src, mesh, ratio in runs:
+    for _, src, mesh, ratio in runs:
         try:
             scores[(src, ratio)] = run(build, data, work, src, mesh, ratio, flags)
         except subprocess.CalledProcessError as e:
