@@ -5,6 +5,7 @@
 #include <pcl_ecs/simplify_core.h>
 #include <pcl_ecs/stages/ball_cover.h>
 #include <pcl_ecs/stages/density_weights.h>
+#include <pcl_ecs/stages/feature_measure.h>
 #include <pcl_ecs/stages/global_stats.h>
 #include <pcl_ecs/stages/local_density.h>
 #include <pcl_ecs/stages/paraboloid_curvature.h>
@@ -29,12 +30,14 @@ struct CoverRun
     tree.setInputCloud(cloud);
     pcl_ecs::computeLocalDensity(*cloud, table, feature, tree, 2, density);
     pcl_ecs::computeMeanCurvature(*cloud, normals, table, feature, 2, curvature);
+    pcl_ecs::computeFeatureMeasure(*cloud, normals, table, 2, measure);
     pcl_ecs::coverWithBalls(input(), params, terr, out);
   }
   /// The means the method takes (the same GlobalStats as the filter and the tiled run).
   pcl_ecs::GlobalStats stats() const
   {
     pcl_ecs::GlobalStats s;
+    s.addMeasures(measure);
     s.addNonFeatures(density, weights, curvature, feature);
     return s;
   }
@@ -45,7 +48,7 @@ struct CoverRun
   }
   Cloud::Ptr cloud_;
   pcl_ecs::NormalList normals;
-  std::vector<double> weights, density, curvature;
+  std::vector<double> weights, density, curvature, measure;
   std::vector<std::uint8_t> feature;
   pcl::search::KdTree<pcl::PointXYZ> tree;
   pcl_ecs::CoverOutput out;

@@ -389,6 +389,77 @@ TEST(BallCover, WhereNoQuadraticFitsTheRepresentativeIsTheMemberNearestTheOptimi
   EXPECT_EQ(at_input_points, 0u);
 }
 
+// representative_fit.h, fitWithinNoise: a quadratic that leaves more than the scan's noise around
+// it misses the surface, and the member nearest to the optimised point stands for its ball. A
+// wave z = A sin(2πx / λ) with noise of σ = A / 20 and balls as large as a wide cap and a loose
+// error bound allow (radius about λ): their normals spread by ±17° (the balls count as smooth),
+// but across a wavelength a quadratic misses the sine by more than the noise.
+// Judged against the cloud's noise level, the balls the fit misses give way to members; judged
+// against no noise level (CoverInput::mean_measure 0) they keep the fitted height. The oracle is
+// the wave itself: the representatives lie nearer to it with the rule, and the members that stand
+// for those balls nearer than the fitted heights they replace.
+TEST(BallCover, AFitThatMissesTheSurfaceByMoreThanTheNoiseGivesWayToAMember)
+{
+  const double A = 0.005, lambda = 0.1, sigma = A / 20.0;
+  const double k = 2.0 * M_PI / lambda;
+  Rng rng(11);
+  auto cloud = std::make_shared<Cloud>();
+  for (int i = 0; i < 40000; ++i)
+  {
+    const double x = rng.uniform(-0.5, 0.5), y = rng.uniform(-0.5, 0.5);
+    cloud->push_back(toPoint({x, y, A * std::sin(k * x) + sigma * rng.normal()}));
+  }
+  // Distance to the wave along its normal, to first order in the noise-free height difference.
+  auto offWave = [&](const Eigen::Vector3d& v) {
+    const double slope = A * k * std::cos(k * v.x());
+    return std::abs(v.z() - A * std::sin(k * v.x())) / std::sqrt(1.0 + slope * slope);
+  };
+  pcl_ecs::Parameters p;
+  p.radius_cap_factor = 12.0;  // large balls: a wide cap and a loose error bound
+  const double terr = 1e-2;
+  CoverRun run(cloud, p, terr);
+  pcl_ecs::CoverInput blind = run.input();
+  ASSERT_GT(blind.mean_measure, 0.0);
+  blind.mean_measure = 0.0;
+  pcl_ecs::CoverOutput without;
+  pcl_ecs::coverWithBalls(blind, p, terr, without);
+  // The rule changes which point stands for a ball, never the balls.
+  ASSERT_EQ(run.out.balls.size(), without.balls.size());
+  double with_sum = 0.0, without_sum = 0.0, member_sum = 0.0, replaced_sum = 0.0, radius_sum = 0.0;
+  std::size_t measured = 0, gave_way = 0;
+  for (std::size_t b = 0; b < run.out.balls.size(); ++b)
+  {
+    const auto& w = run.out.balls[b];
+    const auto& o = without.balls[b];
+    ASSERT_EQ(w.centre, o.centre);
+    ASSERT_EQ(w.radius, o.radius);
+    if (!(w.radius > 0.0) || o.used_centre)
+      continue;
+    ++measured;
+    radius_sum += w.radius;
+    with_sum += offWave(w.representative);
+    without_sum += offWave(o.representative);
+    if (o.fitted && !w.fitted)
+    {
+      ++gave_way;
+      EXPECT_EQ(w.representative, (*cloud)[static_cast<std::size_t>(w.attribute_source)].getVector3fMap().cast<double>());
+      member_sum += offWave(w.representative);
+      replaced_sum += offWave(o.representative);
+    }
+    else
+      EXPECT_EQ(w.fitted, o.fitted);
+  }
+  std::printf("%zu of %zu balls (mean radius %.3f) gave way to a member: %.2e from the wave (the fits %.2e); all "
+              "balls %.2e (without the rule %.2e); noise %.2e\n",
+              gave_way, measured, radius_sum / static_cast<double>(measured),
+              member_sum / static_cast<double>(std::max<std::size_t>(gave_way, 1)),
+              replaced_sum / static_cast<double>(std::max<std::size_t>(gave_way, 1)),
+              with_sum / static_cast<double>(measured), without_sum / static_cast<double>(measured), sigma);
+  ASSERT_GT(gave_way, measured / 10) << "the test shape must exercise the rule";
+  EXPECT_LT(member_sum, 0.7 * replaced_sum);
+  EXPECT_LT(with_sum, without_sum);
+}
+
 // A ball whose optimised point no quadratic places gives way to a member point, but never to one
 // that is an output point already (another ball's centre, or a member another ball gave way to)
 // nor to one that starts a ball later (the member chosen is covered): no two representatives

@@ -290,12 +290,14 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
   }
 
   // The representative on the surface the members describe (representative_fit.h): in smooth
-  // balls, and in curved ones that the quadratic fits closely.
+  // balls, and in curved ones that the quadratic fits closely; a large ball's only where the
+  // quadratic fits as closely as the scan's noise.
   if (params.representative_fit && offset)
     if (const auto fitted = fitRepresentativeHeight(w.offsets, w.distances, sol.radius, in.normals[cs].cast<double>(),
                                                     v_offset))
     {
-      if (smoothQuadric(sol.quadric, kSmoothQuadricRatio) || fitted->residual < kCurvedBallFitResidual)
+      if ((smoothQuadric(sol.quadric, kSmoothQuadricRatio) || fitted->residual < kCurvedBallFitResidual) &&
+          fitWithinNoise(fitted->residual, sol.radius, in.neighborhood_radius, in.mean_measure))
       {
         v_offset = fitted->offset;
         ball.representative = centre + v_offset;

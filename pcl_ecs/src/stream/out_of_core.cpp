@@ -236,6 +236,7 @@ void Runner::globalsAfterA()
   const TileSumsA a = TileSumsA::from(
       tileTotals(paths_.totalA(), tiles, TileSumsA::kValues, [&](int t) { return paths_.sumA(t); }));
   summary_.merged_points = static_cast<std::uint64_t>(a.merged);
+  measures_ = a.stats;
   delta_ = a.stats.featureThreshold(params_.feature_factor);
   summary_.feature_threshold = delta_ / plan_.scale();
   summary_.incomplete_neighbourhoods = static_cast<std::uint64_t>(a.incomplete);
@@ -248,6 +249,7 @@ int Runner::globalsAfterB(bool warn)
       tileTotals(paths_.totalB(), tiles, TileSumsB::kValues, [&](int t) { return paths_.sumB(t); }));
   summary_.search_fallback_tiles = static_cast<std::uint64_t>(b.searched);
   stats_ = b.stats;  // the whole scan's sums for eq. 6, 1 and 12 (the cover's means)
+  stats_.merge(measures_);  // and eq. 3's (the noise level the representatives' fits are held to)
   summary_.mean_spacing = stats_.meanSpacing() / plan_.scale();
   summary_.neighborhood_radius = stats_.neighborhoodRadius() / plan_.scale();
   summary_.mean_abs_curvature = stats_.meanAbsCurvature() * plan_.scale();

@@ -604,7 +604,8 @@ private:
   std::map<int, std::vector<int>> claim_writers_;
   // global statistics
   double delta_ = 0.0, cap_ = 0.0;
-  GlobalStats stats_;  ///< step B's sums over the whole scan
+  GlobalStats measures_;  ///< step A's sums over the whole scan (eq. 3)
+  GlobalStats stats_;     ///< step B's sums over the whole scan, and step A's
   Eigen::Vector3d viewpoint_local_ = Eigen::Vector3d::Zero();
   std::array<int, 3> normal_fields_{{-1, -1, -1}};  // normal_x/y/z in the records, -1: absent
 };

@@ -53,6 +53,9 @@ struct CoverInput
   /// distance to the K neighbours; robust where eq. 5 is not (duplicates, quantised coordinates)
   double neighborhood_radius;
   double bbox_diagonal;                     ///< L
+  /// eq. 3's mean over every point (GlobalStats::meanMeasure): the noise level against which a
+  /// representative's fit is judged (representative_fit.h); 0: not known, no fit is refused for it
+  double mean_measure;
   /// radius search over all of `cloud` (feature points in its results are skipped)
   const pcl::search::Search<pcl::PointXYZ>& search;
   /// optional (the out-of-core path): only points with a non-zero entry may be centres
@@ -72,7 +75,7 @@ struct CoverInput
 };
 
 /** \brief The cover's input: the per-point values of eq. 1-12 and the means over the whole cloud
- * that `stats` holds (eq. 6, 12 and the radius unit), as the filter and every tile of the
+ * that `stats` holds (eq. 3, 6, 12 and the radius unit), as the filter and every tile of the
  * out-of-core run take them. */
 inline CoverInput makeCoverInput(const LocalCloud& cloud, const NormalList& normals, const std::vector<double>& weights,
                                  const std::vector<std::uint8_t>& is_feature, const std::vector<double>& curvature,
@@ -89,6 +92,7 @@ inline CoverInput makeCoverInput(const LocalCloud& cloud, const NormalList& norm
           stats.meanSpacing(),
           stats.neighborhoodRadius(),
           bbox_diagonal,
+          stats.meanMeasure(),
           search};
 }
 

@@ -40,6 +40,9 @@ struct GlobalStats
 
   /// δ = α × mean measure (eq. 4); 0 for no points.
   double featureThreshold(double alpha) const { return points > 0 ? alpha * measure_sum / points : 0.0; }
+  /// The mean of eq. 3 over every point: the mean distance of a point's neighbours to its tangent
+  /// plane, the scan's noise level where the surface is smooth (0 for no points).
+  double meanMeasure() const { return points > 0 ? measure_sum / points : 0.0; }
   /// The means over the non-feature points (0 when there are none).
   double meanSpacing() const { return nonfeature_points > 0 ? spacing_sum / nonfeature_points : 0.0; }
   double neighborhoodRadius() const { return nonfeature_points > 0 ? radius_sum / nonfeature_points : 0.0; }
