@@ -510,15 +510,24 @@ std::vector<std::uint32_t> Runner::hilbertOrder(const std::vector<std::uint64_t>
   for (std::size_t i = 0; i < n; ++i)
     keys[i] = {0, gids[i], static_cast<std::uint32_t>(i)};
   {
-    std::vector<std::uint64_t> codes(n);
     // On the grid the in-memory filter orders the whole cloud on: one tile gives its run exactly.
-    spatialCodes(pos.data(), n, plan_.lo, plan_.hi, codes.data(),
-                 spatialOrderBits(static_cast<std::size_t>(plan_.finite_points)));  // several points per instruction
-    for (std::size_t i = 0; i < n; ++i)
-      keys[i].code = codes[i];
+    // A point's code depends on it alone, so the chunks the threads take do not change them.
+    const int bits = spatialOrderBits(static_cast<std::size_t>(plan_.finite_points));
+    constexpr std::size_t kChunk = 4096;
+    const auto chunks = static_cast<std::ptrdiff_t>((n + kChunk - 1) / kChunk);
+#pragma omp parallel for schedule(static) num_threads(tile_threads_) if (chunks > 1)
+    for (std::ptrdiff_t c = 0; c < chunks; ++c)
+    {
+      const std::size_t first = static_cast<std::size_t>(c) * kChunk, count = std::min(kChunk, n - first);
+      std::uint64_t codes[kChunk];
+      spatialCodes(pos.data() + first, count, plan_.lo, plan_.hi, codes, bits);  // several points per instruction
+      for (std::size_t j = 0; j < count; ++j)
+        keys[first + j].code = codes[j];
+    }
   }
+  // Stable, so the same order for any thread count.
   radixSortThenTies(keys, [](const Key& k) { return k.code; },
-                    [](const Key& a, const Key& b) { return a.gid < b.gid; });
+                    [](const Key& a, const Key& b) { return a.gid < b.gid; }, tile_threads_);
   // Coincident points (to the rounding of the input's coordinates), as in the filter: one of each
   // group stands for it, the others are not loaded. A group has one position, so every tile that holds it, as
   // its own or in its halo, holds all of it and keeps the same point.
@@ -609,6 +618,8 @@ TileData Runner::loadTile(int t) const
   const Eigen::Vector3d origin = plan_.origin();
   const double scale = plan_.scale();
   constexpr std::size_t kAhead = 8;  // records fetched ahead: the gather's reads are scattered
+  // Each o fills its own slots: the threads' shares do not change what is loaded.
+#pragma omp parallel for schedule(static) num_threads(tile_threads_) if (m >= 8192)
   for (std::size_t o = 0; o < m; ++o)
   {
     if (o + kAhead < m)
