@@ -355,6 +355,11 @@ TEST_F(OutOfCore, MatchesTheInMemoryFilter)
   opt.scratch_dir = path("scratch-one");
   const StreamSummary one = simplifyOutOfCore(path("scan.pcd"), path("one.pcd"), params, opt);
   ASSERT_EQ(one.tiles.size(), 1u);
+  // A tile with no neighbour has no halo: the plan skips the spacing estimate, and no ball can be
+  // cut at a border.
+  EXPECT_GT(s.halo, 0.0);
+  EXPECT_EQ(one.halo, 0.0);
+  EXPECT_FALSE(one.halo_too_narrow);
   EXPECT_EQ(one.output_points, mem[0].size);
   EXPECT_EQ(one.gap_points, m.gap_points);
   const auto one_cloud = loadXyz(path("one.pcd"));

@@ -255,7 +255,7 @@ int Runner::globalsAfterB(bool warn)
   summary_.mean_abs_curvature = stats_.meanAbsCurvature() * plan_.scale();
   cap_ = params_.radius_cap_factor * stats_.neighborhoodRadius();  // local units, as every phase's lengths
   const double cap_world = cap_ / plan_.scale();
-  if (cap_world > plan_.halo)
+  if (tiles > 1 && cap_world > plan_.halo)  // one tile has no halo, and no border to cut balls at
   {
     summary_.halo_too_narrow = true;
     if (warn)

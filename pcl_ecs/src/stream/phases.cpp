@@ -252,6 +252,7 @@ void Runner::coverTask(int t)
   const auto density = readVector<double>(paths_.dens(t));
   NormalList normals(n);
   std::vector<double> weights(n), curvature(n);
+#pragma omp parallel for schedule(static) num_threads(tile_threads_) if (n >= 8192)
   for (std::size_t i = 0; i < n; ++i)
   {
     normals[i] = attr.normal(i);
@@ -366,6 +367,8 @@ std::vector<std::uint8_t> Runner::coveredByEarlierColours(int t, const TileData&
 
 void Runner::writeClaims(int t, const TileData& d, const CoverOutput& cover) const
 {
+  if (plan_.tree.tiles.size() < 2)
+    return;  // one tile: no other tile reads claims
   const std::size_t n = d.size();
   std::vector<std::vector<std::uint32_t>> claims(plan_.tree.tiles.size());
   for (std::size_t i = 0; i < n; ++i)

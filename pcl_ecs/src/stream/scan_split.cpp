@@ -51,7 +51,6 @@ void Runner::scanAndPlan(io::RecordSource& reader)
     failRun(input_ + ": all points lie on one line: there is no surface to simplify");
   if (!(ext.maxCoeff() > 1e-30))
     failRun(input_ + ": the cloud's extent (" + std::to_string(ext.maxCoeff()) + ") is too small for float precision");
-  plan_.halo = estimateHalo(sample);
   planTiles(sample);
   summary_.stage_seconds[0] = secondsSince(t0);
   std::ostringstream os;
@@ -247,6 +246,16 @@ void Runner::planTiles(const PlanningSample& planning)
   const double per_sample = 1.0 / fraction;
   const double max_load = 0.97 * static_cast<double>(plan_.tile_point_budget) / per_sample;
   auto samples = [](double n) { return std::max<std::size_t>(1, static_cast<std::size_t>(n)); };
+  // A sample that fits the first tree's core is one tile (the root is not split): a tile with no
+  // neighbour needs no halo, and the spacing estimate (a neighbour search over the sample) is
+  // skipped.
+  if (sample.size() <= samples(0.8 * max_load))
+  {
+    plan_.halo = 0.0;
+    plan_.tree = buildTileTree(sample2, samples(0.8 * max_load), samples(max_load), plan_.halo);
+    return;
+  }
+  plan_.halo = estimateHalo(planning);
   plan_.tree = buildTileTree(sample2, samples(0.8 * max_load), samples(max_load), plan_.halo);
   std::vector<double> share;
   for (const Tile& t : plan_.tree.tiles)

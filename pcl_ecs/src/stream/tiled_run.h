@@ -516,7 +516,8 @@ private:
   std::uint64_t scanInput(io::RecordSource& reader, PlanningSample& sample);
   /// The halo width from the sample's neighbour distances (world units).
   double estimateHalo(const PlanningSample& sample);
-  /// The tile budget and the tile tree; refuses a limit the run cannot keep.
+  /// The tile budget, the halo (estimateHalo; 0 when the scan fits one tile) and the tile tree;
+  /// refuses a limit the run cannot keep.
   void planTiles(const PlanningSample& sample);
   /// A binary PCD in a regular file is read again by the split; anything else is copied to scratch
   /// once.
