@@ -1,4 +1,5 @@
 #include <pcl_ecs/stages/ball_cover.h>
+#include <pcl_ecs/stages/representative_fit.h>
 #include <pcl_ecs/stages/global_stats.h>
 #include <pcl_ecs/stages/gap_fill.h>
 #include <pcl_ecs/stages/quadric.h>
@@ -458,6 +459,62 @@ TEST(BallCover, AFitThatMissesTheSurfaceByMoreThanTheNoiseGivesWayToAMember)
   ASSERT_GT(gave_way, measured / 10) << "the test shape must exercise the rule";
   EXPECT_LT(member_sum, 0.7 * replaced_sum);
   EXPECT_LT(with_sum, without_sum);
+}
+
+// A large ball whose quadratic leaves more than the noise around it (a wave shorter than two ball
+// widths: the quadratic over a ball misses its bend by about the noise) takes the height of
+// the quadratic near its representative (representative_fit.h, kLocalFitSupport): those
+// representatives lie nearer the wave than the ball-wide fits they replace. With the noise level
+// unknown (mean_measure 0) no ball is refined, and the balls themselves do not change.
+TEST(BallCover, ALargeBallsFitThatLeavesMoreThanTheNoiseIsTakenNearItsRepresentative)
+{
+  const double A = 0.005, lambda = 0.18, sigma = A / 20.0;
+  const double k = 2.0 * M_PI / lambda;
+  Rng rng(12);
+  auto cloud = std::make_shared<Cloud>();
+  for (int i = 0; i < 40000; ++i)
+  {
+    const double x = rng.uniform(-0.5, 0.5), y = rng.uniform(-0.5, 0.5);
+    cloud->push_back(toPoint({x, y, A * std::sin(k * x) + sigma * rng.normal()}));
+  }
+  auto offWave = [&](const Eigen::Vector3d& v) {
+    const double slope = A * k * std::cos(k * v.x());
+    return std::abs(v.z() - A * std::sin(k * v.x())) / std::sqrt(1.0 + slope * slope);
+  };
+  pcl_ecs::Parameters p;
+  p.radius_cap_factor = 12.0;
+  const double terr = 1e-2;
+  CoverRun run(cloud, p, terr);
+  pcl_ecs::CoverInput blind = run.input();
+  blind.mean_measure = 0.0;
+  pcl_ecs::CoverOutput whole;
+  pcl_ecs::coverWithBalls(blind, p, terr, whole);
+  ASSERT_EQ(run.out.balls.size(), whole.balls.size());
+  double local_sum = 0.0, whole_sum = 0.0;
+  std::size_t refined = 0, fitted = 0;
+  for (std::size_t b = 0; b < run.out.balls.size(); ++b)
+  {
+    const auto& w = run.out.balls[b];
+    const auto& o = whole.balls[b];
+    ASSERT_EQ(w.centre, o.centre);
+    ASSERT_EQ(w.radius, o.radius);
+    EXPECT_EQ(o.fit_support, 0.0);
+    fitted += w.fitted ? 1 : 0;
+    if (!(w.fit_support > 0.0))
+      continue;
+    ++refined;
+    ASSERT_TRUE(w.fitted && o.fitted);
+    EXPECT_GT(w.radius, pcl_ecs::kFitNoiseMinRadius * run.input().neighborhood_radius);
+    EXPECT_DOUBLE_EQ(w.fit_support, pcl_ecs::kLocalFitSupport * w.radius);
+    local_sum += offWave(w.representative);
+    whole_sum += offWave(o.representative);
+  }
+  std::printf("%zu of %zu fitted balls refined near their representative: %.2e from the wave (their ball-wide fits "
+              "%.2e); noise %.2e\n",
+              refined, fitted, local_sum / static_cast<double>(std::max<std::size_t>(refined, 1)),
+              whole_sum / static_cast<double>(std::max<std::size_t>(refined, 1)), sigma);
+  ASSERT_GT(refined, fitted / 2) << "the test shape must exercise the rule";
+  EXPECT_LT(local_sum, 0.5 * whole_sum);  // 0.35 × here
 }
 
 // A ball whose optimised point no quadratic places gives way to a member point, but never to one

@@ -106,6 +106,57 @@ TEST(RepresentativeFit, RefusesTooFewOrDegenerateMembersAndFarHeights)
   EXPECT_FALSE(pcl_ecs::fitRepresentativeHeight(steep.offsets, steep.distances, 0.2, n, {0.9, 0.0, 0.0}).has_value());
 }
 
+// A surface that bends more than a quadratic (a quartic bowl): the quadratic over the whole ball
+// misses it at a representative off the centre; the one fitted to the members near it
+// (kLocalFitSupport of r around it) lands within a fraction of that. Exact expectations: the points
+// lie on h(u, v) = c (u² + v²)² with no noise.
+TEST(RepresentativeFit, TheQuadraticNearTheRepresentativeFollowsABendTheBallsQuadraticMisses)
+{
+  const Eigen::Vector3d n = Eigen::Vector3d(0.2, 0.1, 1.0).normalized();
+  const double r = 1.0, c = 0.05;
+  auto h = [&](double u, double v) { return c * (u * u + v * v) * (u * u + v * v); };
+  const Ball b = ballOn(n, r, h, 41);
+  Eigen::Vector3d t1, t2;
+  pcl_ecs::tangentFrame(n, t1, t2);
+  for (const auto& [u, v] : {std::pair{0.3, 0.0}, std::pair{-0.2, 0.25}, std::pair{0.0, -0.35}})
+  {
+    SCOPED_TRACE(u);
+    const Eigen::Vector3d x = u * t1 + v * t2;
+    const auto whole = pcl_ecs::fitRepresentativeHeight(b.offsets, b.distances, r, n, x);
+    const auto local = pcl_ecs::fitLocalHeight(b.offsets, r, n, x, pcl_ecs::kLocalFitSupport * r);
+    ASSERT_TRUE(whole.has_value());
+    ASSERT_TRUE(local.has_value());
+    const double whole_miss = std::abs(n.dot(whole->offset) - h(u, v));
+    const double local_miss = std::abs(n.dot(local->offset) - h(u, v));
+    std::printf("at (%.2f, %.2f): the ball's quadratic misses by %.2e, the local one by %.2e (residuals %.1e, %.1e)\n",
+                u, v, whole_miss, local_miss, whole->residual, local->residual);
+    EXPECT_GT(whole_miss, 1e-3 * c) << "the shape must bend more than a quadratic over the ball";
+    EXPECT_LT(local_miss, 0.45 * whole_miss);  // 0.11-0.39 × here
+    EXPECT_LT(local->residual, whole->residual);
+    // Same frame: the local coefficients give the same height at x (as relaxRepresentatives reads them).
+    EXPECT_NEAR(n.dot(pcl_ecs::onFittedHeight(local->coefficients, r, n, x)), n.dot(local->offset), 1e-12);
+    EXPECT_NEAR(t1.dot(local->offset), u, 1e-12);
+    EXPECT_NEAR(t2.dot(local->offset), v, 1e-12);
+  }
+  // On a quadratic surface both fits are exact.
+  const Ball q = ballOn(n, r, [](double u, double v) { return 0.1 * u * u - 0.05 * u * v + 0.02 * v; }, 41);
+  const auto local = pcl_ecs::fitLocalHeight(q.offsets, r, n, 0.2 * t1, pcl_ecs::kLocalFitSupport * r);
+  ASSERT_TRUE(local.has_value());
+  EXPECT_NEAR(n.dot(local->offset), 0.1 * 0.04, 1e-9);
+}
+
+// The local fit needs kRepresentativeFitMinPoints members within its support of x, not in the ball.
+TEST(RepresentativeFit, TheLocalFitNeedsEnoughMembersNearTheRepresentative)
+{
+  const Eigen::Vector3d n = Eigen::Vector3d::UnitZ();
+  const Ball b = ballOn(n, 1.0, [](double u, double) { return 0.1 * u * u; });  // 9 × 9 grid, ~0.175 apart
+  ASSERT_GE(b.offsets.size(), 40u);
+  // Support 0.3 around the centre: about 9 members weigh more than 0.
+  EXPECT_FALSE(pcl_ecs::fitLocalHeight(b.offsets, 1.0, n, Eigen::Vector3d::Zero(), 0.3).has_value());
+  EXPECT_TRUE(pcl_ecs::fitLocalHeight(b.offsets, 1.0, n, Eigen::Vector3d::Zero(), 0.6).has_value());
+  EXPECT_FALSE(pcl_ecs::fitLocalHeight(b.offsets, 1.0, n, Eigen::Vector3d::Zero(), 0.0).has_value());
+}
+
 TEST(RepresentativeFit, ASmoothQuadricHasOneDominantDirection)
 {
   pcl_ecs::Quadric flat, edge, empty;

@@ -29,8 +29,9 @@ struct Step
 
 /// The step by brute force: every covered point to its nearest output (ties: the lower index), each
 /// fitted ball's representative to its cell centroid's tangent position on its quadratic, unless
-/// that lies 0.5 r or farther from the centre; a moved ball's record from its cell's point nearest
-/// to the new position.
+/// that lies 0.5 r or farther from the centre (or, for a fit made near one point, its support or
+/// farther from that point); a moved ball's record from its cell's point nearest to the new
+/// position.
 Step oracle(const CoverRun& run, const pcl_ecs::CoverOutput& out)
 {
   const pcl_ecs::CoverInput in = run.input();
@@ -68,6 +69,9 @@ Step oracle(const CoverRun& run, const pcl_ecs::CoverOutput& out)
     const Eigen::Vector3d n = run.normals[static_cast<std::size_t>(ball.centre)].cast<double>();
     Eigen::Vector3d t = sum[b] / members[b] - c;
     t -= n.dot(t) * n;
+    // A fit made near one point (fit_support > 0) is not followed farther than its support.
+    if (ball.fit_support > 0.0 && !((t - (ball.fit_at - n.dot(ball.fit_at) * n)).norm() < ball.fit_support))
+      continue;
     const Eigen::Vector3d x = pcl_ecs::onFittedHeight(ball.fit, ball.radius, n, t);
     if (!(x.norm() < 0.5 * ball.radius))
       continue;
@@ -194,6 +198,49 @@ TEST(RepresentativeRelax, FeaturesAndUnfittedBallsStay)
   }
   // Fewer than 12 points or a crease inside: not fitted (the cube has both near its edges).
   EXPECT_GT(unfitted, 0u);
+}
+
+// A fit made near the representative (a large ball's, representative_fit.h: fit_support > 0) holds
+// only within its support: a ball whose cell centroid lies farther than that from where the fit was
+// made keeps its representative; one whose centroid lies within it moves as any fitted ball.
+TEST(RepresentativeRelax, AFitMadeNearOnePointIsNotFollowedPastItsSupport)
+{
+  auto cloud = randomPlane(3000, 1.0, 5);
+  CoverRun run(cloud, pcl_ecs::Parameters{}, 1e-3);
+  const Step free_step = oracle(run, run.out);
+  // Every fitted ball's fit declared to hold within a support around its representative that
+  // reaches halfway to where the free step would move it: none of those move; the same support
+  // reaching twice as far lets them all move as before.
+  for (const double reach : {0.5, 2.0})
+  {
+    SCOPED_TRACE(reach);
+    pcl_ecs::CoverOutput out = run.out;
+    std::size_t declared = 0;
+    for (std::size_t b = 0; b < out.balls.size(); ++b)
+    {
+      pcl_ecs::CoverBall& ball = out.balls[b];
+      const double step = (free_step.reps[b] - ball.representative).norm();
+      if (!ball.fitted || !(step > 0.0))
+        continue;
+      ball.fit_at = ball.representative - at(*cloud, static_cast<std::size_t>(ball.centre));
+      ball.fit_support = reach * step;
+      ++declared;
+    }
+    ASSERT_GT(declared, 20u);
+    const Step expected = oracle(run, out);
+    pcl_ecs::CoverOutput relaxed = out;
+    const std::size_t moved = pcl_ecs::relaxRepresentatives(run.input(), 0.5, 2, relaxed);
+    for (std::size_t b = 0; b < relaxed.balls.size(); ++b)
+    {
+      EXPECT_LT((relaxed.balls[b].representative - expected.reps[b]).norm(), 1e-9) << b;
+      if (out.balls[b].fit_support > 0.0)
+        EXPECT_EQ(relaxed.balls[b].representative == out.balls[b].representative, reach < 1.0) << b;
+    }
+    if (reach < 1.0)
+      EXPECT_LT(moved, run.out.balls.size() - declared + 1);
+    else
+      EXPECT_GE(moved, declared);
+  }
 }
 
 // The same bytes for any thread count; nothing to do on an empty cover.

@@ -299,10 +299,25 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
       if ((smoothQuadric(sol.quadric, kSmoothQuadricRatio) || fitted->residual < kCurvedBallFitResidual) &&
           fitWithinNoise(fitted->residual, sol.radius, in.neighborhood_radius, in.mean_measure))
       {
-        v_offset = fitted->offset;
+        RepresentativeFit kept = *fitted;
+        // A large ball whose quadratic leaves more than the noise: the height of the quadratic
+        // near the representative, when that one fits within the noise (representative_fit.h).
+        if (sol.radius > kFitNoiseMinRadius * in.neighborhood_radius && in.mean_measure > 0.0 &&
+            fitted->residual * sol.radius > in.mean_measure)
+        {
+          const double support = kLocalFitSupport * sol.radius;
+          const auto local = fitLocalHeight(w.offsets, sol.radius, in.normals[cs].cast<double>(), v_offset, support);
+          if (local && fitWithinNoise(local->residual, sol.radius, in.neighborhood_radius, in.mean_measure))
+          {
+            kept = *local;
+            ball.fit_at = v_offset;
+            ball.fit_support = support;
+          }
+        }
+        v_offset = kept.offset;
         ball.representative = centre + v_offset;
         ball.fitted = true;
-        ball.fit = fitted->coefficients;
+        ball.fit = kept.coefficients;
       }
     }
 

@@ -114,6 +114,10 @@ struct CoverBall
   /// `fit` its coefficients in the centre's tangent frame: relaxRepresentatives moves it along it.
   bool fitted = false;
   Eigen::Matrix<double, 6, 1> fit = Eigen::Matrix<double, 6, 1>::Zero();
+  /// Where `fit` holds (representative_fit.h, kLocalFitSupport): within `fit_support` of the
+  /// tangent position of `fit_at` (an offset from the centre); 0: over the whole ball.
+  Eigen::Vector3d fit_at = Eigen::Vector3d::Zero();
+  double fit_support = 0.0;
 };
 
 /** \brief Parameters::max_roughness: a ball this rough keeps its centre as its representative. */
