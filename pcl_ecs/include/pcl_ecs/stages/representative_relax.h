@@ -14,8 +14,10 @@
 // What does not move: feature points (they are sites of the cells, so a representative is not drawn
 // across a sharp edge), representatives that are not on a fit (rough balls and balls whose
 // points were too few for it: their centres; balls across a crease: their optimised point, on the
-// edge), balls whose cell holds no covered point, and a representative whose new position would lie
-// Parameters::max_representative_offset × r or farther from its centre. The cells are measured
+// edge), balls whose cell holds no covered point, a representative whose new position would lie
+// Parameters::max_representative_offset × r or farther from its centre, and one on a fit made near
+// it (CoverBall::fit_support: a large ball's, representative_fit.h) whose new tangent position would
+// lie that support or farther from where the fit was made. The cells are measured
 // once, for every representative together (a Jacobi step), so the result does not depend on the
 // order of the balls nor on the thread count.
 #pragma once
