@@ -41,6 +41,62 @@ std::size_t ballsThatDiffer(const std::vector<pcl_ecs::CoverBall>& a, const std:
                   : 0;
   return differ;
 }
+
+/// 40,000 points of the wave z = A sin(2πx / λ) over the unit square, with normal noise of σ, and
+/// a point's distance to the wave along its normal (to first order in the noise-free height
+/// difference): the oracle of the tests of large balls' fits.
+struct NoisyWave
+{
+  double A, lambda, sigma;
+  std::shared_ptr<Cloud> cloud = std::make_shared<Cloud>();
+  NoisyWave(double amplitude, double wavelength, double noise, std::uint64_t seed)
+    : A(amplitude), lambda(wavelength), sigma(noise)
+  {
+    Rng rng(seed);
+    for (int i = 0; i < 40000; ++i)
+    {
+      const double x = rng.uniform(-0.5, 0.5), y = rng.uniform(-0.5, 0.5);
+      cloud->push_back(toPoint({x, y, A * std::sin(k() * x) + sigma * rng.normal()}));
+    }
+  }
+  double k() const { return 2.0 * M_PI / lambda; }
+  double off(const Eigen::Vector3d& v) const
+  {
+    const double slope = A * k() * std::cos(k() * v.x());
+    return std::abs(v.z() - A * std::sin(k() * v.x())) / std::sqrt(1.0 + slope * slope);
+  }
+};
+
+/// A wave covered by large balls (a wide cap and a loose error bound): as the filter covers it
+/// (`run`), and with the noise level unknown (CoverInput::mean_measure 0: `blind`).
+struct LargeBalls
+{
+  static pcl_ecs::Parameters params()
+  {
+    pcl_ecs::Parameters p;
+    p.radius_cap_factor = 12.0;
+    return p;
+  }
+  static constexpr double kTerr = 1e-2;
+  CoverRun run;
+  pcl_ecs::CoverOutput blind;
+  explicit LargeBalls(const NoisyWave& wave) : run(wave.cloud, params(), kTerr)
+  {
+    pcl_ecs::CoverInput unknown = run.input();
+    unknown.mean_measure = 0.0;
+    pcl_ecs::coverWithBalls(unknown, params(), kTerr, blind);
+  }
+  /// The rules judged by the noise level change which point stands for a ball, never the balls.
+  void expectSameBalls() const
+  {
+    ASSERT_EQ(run.out.balls.size(), blind.balls.size());
+    for (std::size_t b = 0; b < blind.balls.size(); ++b)
+    {
+      ASSERT_EQ(run.out.balls[b].centre, blind.balls[b].centre);
+      ASSERT_EQ(run.out.balls[b].radius, blind.balls[b].radius);
+    }
+  }
+};
 }  // namespace
 
 TEST(BallCover, EveryPointIsOwnedAndCountsAddUp)
@@ -401,39 +457,21 @@ TEST(BallCover, WhereNoQuadraticFitsTheRepresentativeIsTheMemberNearestTheOptimi
 // for those balls nearer than the fitted heights they replace.
 TEST(BallCover, AFitThatMissesTheSurfaceByMoreThanTheNoiseGivesWayToAMember)
 {
-  const double A = 0.005, lambda = 0.1, sigma = A / 20.0;
-  const double k = 2.0 * M_PI / lambda;
-  Rng rng(11);
-  auto cloud = std::make_shared<Cloud>();
-  for (int i = 0; i < 40000; ++i)
-  {
-    const double x = rng.uniform(-0.5, 0.5), y = rng.uniform(-0.5, 0.5);
-    cloud->push_back(toPoint({x, y, A * std::sin(k * x) + sigma * rng.normal()}));
-  }
-  // Distance to the wave along its normal, to first order in the noise-free height difference.
-  auto offWave = [&](const Eigen::Vector3d& v) {
-    const double slope = A * k * std::cos(k * v.x());
-    return std::abs(v.z() - A * std::sin(k * v.x())) / std::sqrt(1.0 + slope * slope);
-  };
-  pcl_ecs::Parameters p;
-  p.radius_cap_factor = 12.0;  // large balls: a wide cap and a loose error bound
-  const double terr = 1e-2;
-  CoverRun run(cloud, p, terr);
-  pcl_ecs::CoverInput blind = run.input();
-  ASSERT_GT(blind.mean_measure, 0.0);
-  blind.mean_measure = 0.0;
-  pcl_ecs::CoverOutput without;
-  pcl_ecs::coverWithBalls(blind, p, terr, without);
-  // The rule changes which point stands for a ball, never the balls.
-  ASSERT_EQ(run.out.balls.size(), without.balls.size());
+  const NoisyWave wave(0.005, 0.1, 0.005 / 20.0, 11);
+  const auto& cloud = wave.cloud;
+  const double sigma = wave.sigma;
+  auto offWave = [&](const Eigen::Vector3d& v) { return wave.off(v); };
+  const LargeBalls covers(wave);
+  ASSERT_GT(covers.run.input().mean_measure, 0.0);
+  ASSERT_NO_FATAL_FAILURE(covers.expectSameBalls());
+  const CoverRun& run = covers.run;
+  const pcl_ecs::CoverOutput& without = covers.blind;
   double with_sum = 0.0, without_sum = 0.0, member_sum = 0.0, replaced_sum = 0.0, radius_sum = 0.0;
   std::size_t measured = 0, gave_way = 0;
   for (std::size_t b = 0; b < run.out.balls.size(); ++b)
   {
     const auto& w = run.out.balls[b];
     const auto& o = without.balls[b];
-    ASSERT_EQ(w.centre, o.centre);
-    ASSERT_EQ(w.radius, o.radius);
     if (!(w.radius > 0.0) || o.used_centre)
       continue;
     ++measured;
@@ -468,36 +506,16 @@ TEST(BallCover, AFitThatMissesTheSurfaceByMoreThanTheNoiseGivesWayToAMember)
 // unknown (mean_measure 0) no ball is refined, and the balls themselves do not change.
 TEST(BallCover, ALargeBallsFitThatLeavesMoreThanTheNoiseIsTakenNearItsRepresentative)
 {
-  const double A = 0.005, lambda = 0.18, sigma = A / 20.0;
-  const double k = 2.0 * M_PI / lambda;
-  Rng rng(12);
-  auto cloud = std::make_shared<Cloud>();
-  for (int i = 0; i < 40000; ++i)
-  {
-    const double x = rng.uniform(-0.5, 0.5), y = rng.uniform(-0.5, 0.5);
-    cloud->push_back(toPoint({x, y, A * std::sin(k * x) + sigma * rng.normal()}));
-  }
-  auto offWave = [&](const Eigen::Vector3d& v) {
-    const double slope = A * k * std::cos(k * v.x());
-    return std::abs(v.z() - A * std::sin(k * v.x())) / std::sqrt(1.0 + slope * slope);
-  };
-  pcl_ecs::Parameters p;
-  p.radius_cap_factor = 12.0;
-  const double terr = 1e-2;
-  CoverRun run(cloud, p, terr);
-  pcl_ecs::CoverInput blind = run.input();
-  blind.mean_measure = 0.0;
-  pcl_ecs::CoverOutput whole;
-  pcl_ecs::coverWithBalls(blind, p, terr, whole);
-  ASSERT_EQ(run.out.balls.size(), whole.balls.size());
+  const NoisyWave wave(0.005, 0.18, 0.005 / 20.0, 12);
+  const LargeBalls covers(wave);
+  ASSERT_NO_FATAL_FAILURE(covers.expectSameBalls());
+  const CoverRun& run = covers.run;
   double local_sum = 0.0, whole_sum = 0.0;
   std::size_t refined = 0, fitted = 0;
   for (std::size_t b = 0; b < run.out.balls.size(); ++b)
   {
     const auto& w = run.out.balls[b];
-    const auto& o = whole.balls[b];
-    ASSERT_EQ(w.centre, o.centre);
-    ASSERT_EQ(w.radius, o.radius);
+    const auto& o = covers.blind.balls[b];
     EXPECT_EQ(o.fit_support, 0.0);
     fitted += w.fitted ? 1 : 0;
     if (!(w.fit_support > 0.0))
@@ -506,13 +524,13 @@ TEST(BallCover, ALargeBallsFitThatLeavesMoreThanTheNoiseIsTakenNearItsRepresenta
     ASSERT_TRUE(w.fitted && o.fitted);
     EXPECT_GT(w.radius, pcl_ecs::kFitNoiseMinRadius * run.input().neighborhood_radius);
     EXPECT_DOUBLE_EQ(w.fit_support, pcl_ecs::kLocalFitSupport * w.radius);
-    local_sum += offWave(w.representative);
-    whole_sum += offWave(o.representative);
+    local_sum += wave.off(w.representative);
+    whole_sum += wave.off(o.representative);
   }
   std::printf("%zu of %zu fitted balls refined near their representative: %.2e from the wave (their ball-wide fits "
               "%.2e); noise %.2e\n",
               refined, fitted, local_sum / static_cast<double>(std::max<std::size_t>(refined, 1)),
-              whole_sum / static_cast<double>(std::max<std::size_t>(refined, 1)), sigma);
+              whole_sum / static_cast<double>(std::max<std::size_t>(refined, 1)), wave.sigma);
   ASSERT_GT(refined, fitted / 2) << "the test shape must exercise the rule";
   EXPECT_LT(local_sum, 0.5 * whole_sum);  // 0.35 × here
 }

@@ -11,18 +11,18 @@
 // tangent position stays the minimiser's. A ball whose normals spread more (a large ball on a
 // curved surface, or one with a sharp edge inside) is fitted too when the quadratic fits its
 // points within kCurvedBallFitResidual × r (RMS): a curved surface is fitted that closely, a
-// crease is not. Either way a large ball's fit must also match the scan's noise: its residual
-// times r within kFitNoiseFactor × the mean of eq. 3 over the cloud (fitWithinNoise). A quadratic that leaves
-// more than the noise around it misses the surface (a large ball over a bend wider than a
+// crease is not. Either way a large ball's fit must also match the scan's noise: its residual times
+// r within kFitNoiseFactor × the mean of eq. 3 over the cloud (fitWithinNoise). A quadratic that
+// leaves more than the noise around it misses the surface (a large ball over a bend wider than a
 // quadratic: a leg or an ear of an animal scan at 1% kept), and its height lies off the surface by
 // about that much. A large ball that keeps its fit but leaves more than the noise around it takes
 // the height from the quadratic fitted to its members near the representative (kLocalFitSupport)
 // where that one fits them within the noise: the whole ball's quadratic keeps a bias of the order
-// of the noise there. A ball fitted by none of these rules is represented by its member nearest to the
-// minimiser (ball_cover.cpp; the centre when that member lies max_representative_offset × r or
-// farther from it): an input point, on the surface. Only a member that is covered and that no
-// other ball stands at is taken (a neighbouring tile's point is not): two balls never stand at
-// one point, and a point one stands at never starts a ball later. Where such a ball wraps round a bend (a leg
+// of the noise there. A ball fitted by none of these rules is represented by its member nearest to
+// the minimiser (ball_cover.cpp; the centre when that member lies max_representative_offset × r or
+// farther from it): an input point, on the surface. Only a member that is covered and that no other
+// ball stands at is taken (a neighbouring tile's point is not): two balls never stand at one point,
+// and a point one stands at never starts a ball later. Where such a ball wraps round a bend (a leg
 // of an animal scan at 1% kept) its tangent planes meet up to a third of r off the surface; on a
 // crease the minimiser lies on the edge and the member beside it. Chosen on the tuning half
 // (pcd_simplify --target-ratio 10/3/1%, pcl_ecs_eval) against the minimiser: output → mesh 0.91 ×
