@@ -64,23 +64,25 @@ TEST(SpatialOrder, CellsAreCubesWhateverTheBoxShape)
   EXPECT_EQ(pcl_ecs::spatialCode(Eigen::Vector3d(std::nan(""), 0, 0), lo, cube), 0u);
 }
 
-// The batch form (several points per instruction) gives the single form's codes, whatever the
-// count (a multiple of the lane count or not).
+// The batch form (several points per instruction, batches on any number of threads) gives the
+// single form's codes, whatever the count (a multiple of the lane count or not; enough points for
+// the threads to share them).
 TEST(SpatialOrder, BatchCodesEqualSingleCodes)
 {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-2.0, 3.0);
   const Eigen::Vector3d lo(-2, -1, 0), hi(3, 2, 1);
-  for (std::size_t count : {0u, 1u, 7u, 8u, 9u, 1001u})
-  {
-    std::vector<Eigen::Vector3d> pts;
-    for (std::size_t i = 0; i < count; ++i)
-      pts.emplace_back(u(rng), u(rng), u(rng));
-    std::vector<std::uint64_t> codes(count, 0);
-    pcl_ecs::spatialCodes(pts.data(), count, lo, hi, codes.data());
-    for (std::size_t i = 0; i < count; ++i)
-      EXPECT_EQ(codes[i], pcl_ecs::spatialCode(pts[i], lo, hi)) << i << " of " << count;
-  }
+  for (std::size_t count : {0u, 1u, 7u, 8u, 9u, 1001u, 20003u})
+    for (const int threads : {1, 3})
+    {
+      std::vector<Eigen::Vector3d> pts;
+      for (std::size_t i = 0; i < count; ++i)
+        pts.emplace_back(u(rng), u(rng), u(rng));
+      std::vector<std::uint64_t> codes(count, 0);
+      pcl_ecs::spatialCodes(pts.data(), count, lo, hi, codes.data(), 21, threads);
+      for (std::size_t i = 0; i < count; ++i)
+        EXPECT_EQ(codes[i], pcl_ecs::spatialCode(pts[i], lo, hi)) << i << " of " << count << ", " << threads;
+    }
 }
 
 TEST(SpatialOrder, SortIsByCodeThenIdWhateverTheThreads)

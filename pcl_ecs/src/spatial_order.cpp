@@ -110,13 +110,18 @@ std::uint64_t spatialCode(const Eigen::Vector3d& p, const Eigen::Vector3d& lo, c
 }
 
 void spatialCodes(const Eigen::Vector3d* points, std::size_t count, const Eigen::Vector3d& lo,
-                  const Eigen::Vector3d& hi, std::uint64_t* codes, int bits)
+                  const Eigen::Vector3d& hi, std::uint64_t* codes, int bits, int threads)
 {
   bits = std::min(std::max(bits, 1), kBits);
   const double extent = (hi - lo).maxCoeff();
   auto at = [points](std::size_t i) { return points[i]; };
-  for (std::size_t first = 0; first < count; first += kLanes)
+  const auto batches = static_cast<std::ptrdiff_t>((count + kLanes - 1) / kLanes);
+#pragma omp parallel for schedule(static) num_threads(std::max(1, threads)) if (threads > 1 && count >= 8192)
+  for (std::ptrdiff_t b = 0; b < batches; ++b)
+  {
+    const std::size_t first = static_cast<std::size_t>(b) * kLanes;
     encodeBatch(at, first, std::min<std::size_t>(kLanes, count - first), lo, extent, bits, codes + first);
+  }
 }
 
 double coincidenceTolerance(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, bool float_coordinates,

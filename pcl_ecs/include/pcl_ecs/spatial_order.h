@@ -23,10 +23,11 @@ namespace pcl_ecs
 std::uint64_t spatialCode(const Eigen::Vector3d& p, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
 
 /** \brief spatialCode() of `count` points at once (the same values; several lanes per
- * instruction); with `bits` < 21, the index on the coarser grid of 2^bits cells per axis, which is
- * spatialCode() >> 3 (21 - bits) (the Hilbert curve refines itself cell by cell). */
+ * instruction, batches on `threads` threads: a point's code depends on it alone); with `bits` < 21,
+ * the index on the coarser grid of 2^bits cells per axis, which is spatialCode() >> 3 (21 - bits)
+ * (the Hilbert curve refines itself cell by cell). */
 void spatialCodes(const Eigen::Vector3d* points, std::size_t count, const Eigen::Vector3d& lo,
-                  const Eigen::Vector3d& hi, std::uint64_t* codes, int bits = 21);
+                  const Eigen::Vector3d& hi, std::uint64_t* codes, int bits = 21, int threads = 1);
 
 /** \brief Bits per axis of the grid sortBySpatialCode() orders `count` points on: 4^(b - 2) >= count
  * (about 16 cells per point on a surface filling the box's face, so that few points share a cell),

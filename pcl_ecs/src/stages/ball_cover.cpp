@@ -302,7 +302,7 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
         RepresentativeFit kept = *fitted;
         // A large ball whose quadratic leaves more than the noise: the height of the quadratic
         // near the representative, when that one fits within the noise (representative_fit.h).
-        if (sol.radius > kFitNoiseMinRadius * in.neighborhood_radius && in.mean_measure > 0.0 &&
+        if (heldToNoise(sol.radius, in.neighborhood_radius, in.mean_measure) &&
             fitted->residual * sol.radius > in.mean_measure)
         {
           const double support = kLocalFitSupport * sol.radius;

@@ -248,15 +248,12 @@ void Runner::planTiles(const PlanningSample& planning)
   auto samples = [](double n) { return std::max<std::size_t>(1, static_cast<std::size_t>(n)); };
   // A sample that fits the first tree's core is one tile (the root is not split): a tile with no
   // neighbour needs no halo, and the spacing estimate (a neighbour search over the sample) is
-  // skipped.
-  if (sample.size() <= samples(0.8 * max_load))
-  {
-    plan_.halo = 0.0;
-    plan_.tree = buildTileTree(sample2, samples(0.8 * max_load), samples(max_load), plan_.halo);
-    return;
-  }
-  plan_.halo = estimateHalo(planning);
+  // skipped; nor has it a halo share to even out below.
+  const bool one_tile = sample.size() <= samples(0.8 * max_load);
+  plan_.halo = one_tile ? 0.0 : estimateHalo(planning);
   plan_.tree = buildTileTree(sample2, samples(0.8 * max_load), samples(max_load), plan_.halo);
+  if (one_tile)
+    return;
   std::vector<double> share;
   for (const Tile& t : plan_.tree.tiles)
     if (t.core_points > 0)
@@ -519,20 +516,12 @@ std::vector<std::uint32_t> Runner::hilbertOrder(const std::vector<std::uint64_t>
   for (std::size_t i = 0; i < n; ++i)
     keys[i] = {0, gids[i], static_cast<std::uint32_t>(i)};
   {
+    std::vector<std::uint64_t> codes(n);
     // On the grid the in-memory filter orders the whole cloud on: one tile gives its run exactly.
-    // A point's code depends on it alone, so the chunks the threads take do not change them.
-    const int bits = spatialOrderBits(static_cast<std::size_t>(plan_.finite_points));
-    constexpr std::size_t kChunk = 4096;
-    const auto chunks = static_cast<std::ptrdiff_t>((n + kChunk - 1) / kChunk);
-#pragma omp parallel for schedule(static) num_threads(tile_threads_) if (chunks > 1)
-    for (std::ptrdiff_t c = 0; c < chunks; ++c)
-    {
-      const std::size_t first = static_cast<std::size_t>(c) * kChunk, count = std::min(kChunk, n - first);
-      std::uint64_t codes[kChunk];
-      spatialCodes(pos.data() + first, count, plan_.lo, plan_.hi, codes, bits);  // several points per instruction
-      for (std::size_t j = 0; j < count; ++j)
-        keys[first + j].code = codes[j];
-    }
+    spatialCodes(pos.data(), n, plan_.lo, plan_.hi, codes.data(),
+                 spatialOrderBits(static_cast<std::size_t>(plan_.finite_points)), tile_threads_);
+    for (std::size_t i = 0; i < n; ++i)
+      keys[i].code = codes[i];
   }
   // Stable, so the same order for any thread count.
   radixSortThenTies(keys, [](const Key& k) { return k.code; },

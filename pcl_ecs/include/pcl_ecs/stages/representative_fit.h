@@ -75,12 +75,20 @@ constexpr double kFitNoiseFactor = 1.5;
  * closed run's mesh changes its topology. */
 constexpr double kFitNoiseMinRadius = 5.0;
 
+/** \brief Whether a ball of radius `radius` is held to the noise level `mean_measure`
+ * (CoverInput::mean_measure; 0: unknown, no ball is): wider than kFitNoiseMinRadius ×
+ * `neighborhood_radius`. */
+inline bool heldToNoise(double radius, double neighborhood_radius, double mean_measure)
+{
+  return mean_measure > 0.0 && radius > kFitNoiseMinRadius * neighborhood_radius;
+}
+
 /** \brief Whether a fit with `residual` (in radii, RepresentativeFit::residual) on a ball of radius
- * `radius` matches the noise level `mean_measure` (CoverInput::mean_measure; 0: unknown, any fit
- * matches); balls of at most kFitNoiseMinRadius × `neighborhood_radius` always match. */
+ * `radius` matches the noise level `mean_measure`: always for a ball not heldToNoise, else its
+ * residual × r within kFitNoiseFactor × `mean_measure`. */
 inline bool fitWithinNoise(double residual, double radius, double neighborhood_radius, double mean_measure)
 {
-  return !(mean_measure > 0.0) || !(radius > kFitNoiseMinRadius * neighborhood_radius) ||
+  return !heldToNoise(radius, neighborhood_radius, mean_measure) ||
          residual * radius < kFitNoiseFactor * mean_measure;
 }
 
