@@ -75,11 +75,10 @@ constexpr double kFitNoiseFactor = 1.5;
  * closed run's mesh changes its topology. Below it, the fitted representatives of balls of 2-5 radii
  * are the farthest from the mesh (the elephant at 1% kept: 1.2-1.4e-4 L against 8e-5 for the input
  * points kept as representatives; 0.7e-4 with a residual below 0.01 r, 2.0e-4 above 0.02 r, where
- * smooth balls pass without a residual bound): held to 1.0 or 1.2 × the
- * mean of eq. 3 at every size, the elephant at 1% lies 0.94 × or 0.95 × as far from its mesh and
- * the tuning half's output → mesh median is 0.99 ×, but the closed shapes at 3% change topology (the
- * turbine 0 → 400 boundary edges, the spool χ 2 → 4); from 3 radii the same, and the elephant at
- * 3% χ −4 → −2. A residual bound of 0.015 r on every ball below 5 radii (smooth ones included)
+ * smooth balls pass without a residual bound): held to 1.0 or 1.2 × the mean of eq. 3 at every
+ * size, the elephant at 1% lies 0.94 × or 0.95 × as far from its mesh and the tuning half's output
+ * → mesh median is 0.99 ×, but the closed shapes at 3% change topology (the turbine 0 → 400
+ * boundary edges, the spool χ 2 → 4); from 3 radii the same, and the elephant at 3% χ −4 → −2. A residual bound of 0.015 r on every ball below 5 radii (smooth ones included)
  * gives 0.93 × on the elephant at 1% but 1.40 × on the fandisk and the part at 10% (small balls,
  * whose residual in radii is the noise over r); the local fit (kLocalFitSupport) in place of a
  * rejected fit, 0.96 ×. */
