@@ -318,7 +318,7 @@ void writeMeshFile(const std::string& dir, const std::string& shape, double rati
 
 /// Cocone and Advancing Front on the closed shapes: run in turn, at least `repeats` times each and
 /// until the two together have run for kClosedSeconds (at most kClosedMaxRepeats times), the least
-/// time of each kept. These runs take 7-350 ms and this machine's speed drifts over seconds: in
+/// time of each kept. These runs take 7-170 ms and this machine's speed drifts over seconds: in
 /// turn, a slow spell falls on both rather than on one; the shortest runs are repeated more, since
 /// a few of them say little about a run of a few milliseconds (the least of five put the bunny at
 /// 3% at 1.02-1.09 × AF's time from one run of the table to the next; with the repeats, 1.06-1.10).
