@@ -37,7 +37,7 @@ private:
 /// x moved along the normal to `height`: its tangent position at that height.
 Eigen::Vector3d atHeight(const Eigen::Vector3d& x, const Eigen::Vector3d& normal, double height)
 {
-  return x - normal.dot(x) * normal + height * normal;
+  return tangentPosition(x, normal) + height * normal;
 }
 
 /// The weighted least-squares quadratic of fitRepresentativeHeight and fitLocalHeight: `weight(j)`
@@ -105,10 +105,9 @@ std::optional<RepresentativeFit> fitLocalHeight(const std::vector<Eigen::Vector3
 {
   if (!(support > 0.0))
     return std::nullopt;
-  const Eigen::Vector3d at = x - normal.dot(x) * normal;  // x's tangent position
+  const Eigen::Vector3d at = tangentPosition(x, normal);
   return fitHeight(offsets, radius, normal, x, kRepresentativeFitMinPoints, [&](std::size_t j) {
-    const Eigen::Vector3d tangent = offsets[j] - normal.dot(offsets[j]) * normal;
-    return kernelG((tangent - at).norm(), support);
+    return kernelG((tangentPosition(offsets[j], normal) - at).norm(), support);
   });
 }
 

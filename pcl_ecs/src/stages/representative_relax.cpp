@@ -115,9 +115,9 @@ std::size_t relaxRepresentatives(const CoverInput& in, double max_representative
     const Eigen::Vector3d target =
         Eigen::Vector3d(static_cast<double>(sum[b][0]), static_cast<double>(sum[b][1]), static_cast<double>(sum[b][2])) *
         (unit / static_cast<double>(members[b]));
-    const Eigen::Vector3d tangent = target - normal.dot(target) * normal;
+    const Eigen::Vector3d tangent = tangentPosition(target, normal);
     if (ball.fit_support > 0.0 &&
-        !((tangent - (ball.fit_at - normal.dot(ball.fit_at) * normal)).norm() < ball.fit_support))
+        !((tangent - tangentPosition(ball.fit_at, normal)).norm() < ball.fit_support))
       continue;  // the fit holds near where it was made (a large ball's, representative_fit.h)
     const Eigen::Vector3d x = onFittedHeight(ball.fit, ball.radius, normal, tangent);
     if (!(x.norm() < max_representative_offset * ball.radius) || !x.allFinite() || centre + x == ball.representative)

@@ -78,10 +78,10 @@ constexpr double kFitNoiseFactor = 1.5;
  * smooth balls pass without a residual bound): held to 1.0 or 1.2 × the mean of eq. 3 at every
  * size, the elephant at 1% lies 0.94 × or 0.95 × as far from its mesh and the tuning half's output
  * → mesh median is 0.99 ×, but the closed shapes at 3% change topology (the turbine 0 → 400
- * boundary edges, the spool χ 2 → 4); from 3 radii the same, and the elephant at 3% χ −4 → −2. A residual bound of 0.015 r on every ball below 5 radii (smooth ones included)
- * gives 0.93 × on the elephant at 1% but 1.40 × on the fandisk and the part at 10% (small balls,
- * whose residual in radii is the noise over r); the local fit (kLocalFitSupport) in place of a
- * rejected fit, 0.96 ×. */
+ * boundary edges, the spool χ 2 → 4); from 3 radii the same, and the elephant at 3% χ −4 → −2.
+ * A residual bound of 0.015 r on every ball below 5 radii (smooth ones included) gives 0.93 × on
+ * the elephant at 1% but 1.40 × on the fandisk and the part at 10% (small balls, whose residual in
+ * radii is the noise over r); the local fit (kLocalFitSupport) in place of a rejected fit, 0.96 ×. */
 constexpr double kFitNoiseMinRadius = 5.0;
 
 /** \brief Whether a ball of radius `radius` is held to the noise level `mean_measure`
@@ -150,6 +150,13 @@ struct RepresentativeFit
 std::optional<RepresentativeFit> fitLocalHeight(const std::vector<Eigen::Vector3d>& offsets, double radius,
                                                 const Eigen::Vector3d& normal, const Eigen::Vector3d& x,
                                                 double support);
+
+/** \brief x's tangent position: x less its component along `normal` (unit). The fits place a
+ * point by its tangent position and a height along the centre's normal. */
+inline Eigen::Vector3d tangentPosition(const Eigen::Vector3d& x, const Eigen::Vector3d& normal)
+{
+  return x - normal.dot(x) * normal;
+}
 
 /** \brief The offset x moved along `normal` onto the quadratic `coefficients` (as fitted by
  * fitRepresentativeHeight with this normal and radius). */
