@@ -168,26 +168,36 @@ inline VertexStars vertexStars(std::size_t num_points, const std::vector<Triangl
 inline std::vector<std::uint32_t> sideNeighbours(const std::vector<Triangle>& triangles, const VertexStars& stars)
 {
   std::vector<std::uint32_t> nbr(3 * triangles.size(), kNone);
+  auto sideOf = [&](std::uint32_t t, std::uint32_t a, std::uint32_t b) {
+    const Triangle& tri = triangles[t];
+    const int k = cornerOf(tri, a);
+    return tri[(k + 1) % 3] == b ? k : (k + 2) % 3;
+  };
+  // At each vertex a, the other corners b of its triangles, sorted: an edge ab (b > a, so each
+  // edge once) held by exactly two of them joins those two across their sides on it.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> link;  // (b, triangle)
   for (std::uint32_t a = 0; a + 1 < stars.offset.size(); ++a)
+  {
+    link.clear();
     for (std::uint32_t i = stars.offset[a]; i < stars.offset[a + 1]; ++i)
+      for (const std::uint32_t x : triangles[stars.star[i]])
+        if (x > a)
+          link.emplace_back(x, stars.star[i]);
+    std::sort(link.begin(), link.end());
+    for (std::size_t i = 0; i < link.size();)
     {
-      const std::uint32_t t = stars.star[i];
-      const Triangle& tri = triangles[t];
-      const int k = cornerOf(tri, a);  // the side from a
-      const std::uint32_t b = tri[(k + 1) % 3];
-      std::uint32_t other = kNone, holders = 0;
-      for (std::uint32_t j = stars.offset[a]; j < stars.offset[a + 1]; ++j)
+      std::size_t j = i + 1;
+      while (j < link.size() && link[j].first == link[i].first)
+        ++j;
+      if (j - i == 2)
       {
-        if (holds(triangles[stars.star[j]], b))
-        {
-          ++holders;
-          if (stars.star[j] != t)
-            other = stars.star[j];
-        }
+        const std::uint32_t b = link[i].first, t0 = link[i].second, t1 = link[i + 1].second;
+        nbr[3 * static_cast<std::size_t>(t0) + static_cast<std::size_t>(sideOf(t0, a, b))] = t1;
+        nbr[3 * static_cast<std::size_t>(t1) + static_cast<std::size_t>(sideOf(t1, a, b))] = t0;
       }
-      if (holders == 2)
-        nbr[3 * static_cast<std::size_t>(t) + static_cast<std::size_t>(k)] = other;
+      i = j;
     }
+  }
   return nbr;
 }
 

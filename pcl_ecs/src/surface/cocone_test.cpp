@@ -33,7 +33,7 @@ std::vector<Facet> coconeFacets(const std::vector<Eigen::Vector3d>& points, cons
   // Facet (c, i) is visited from the cell with the smaller index; results land in a slot per
   // (cell, i), so the parallel loop gives the same array whatever the thread count.
   std::vector<Facet> slots(static_cast<std::size_t>(cell_count) * 4);
-#pragma omp parallel for schedule(dynamic, 4096)
+#pragma omp parallel for schedule(dynamic, 256)
   for (std::int64_t ci = 0; ci < cells; ++ci)
   {
     const auto c = static_cast<std::uint32_t>(ci);
