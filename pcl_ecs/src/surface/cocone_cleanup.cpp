@@ -221,35 +221,39 @@ std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n)
   std::vector<char> keep(out.size(), 1);
   {
     // Edges: keep the first two triangles in walk order (triangle order), and only if they
-    // disagree in direction. Each edge ab (a < b) is met first at the first triangle of a's star
-    // that holds b; the star lists its triangles in triangle order.
+    // disagree in direction. The triangles at edge ab (a < b) are those of a's star that hold b:
+    // a's link (b, triangle) sorted lists them in triangle order.
     const VertexStars stars = vertexStars(n, out);
-    std::vector<std::uint32_t> seen(n, kNone);  // seen[b] == a: edge ab done
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> link;  // (b, triangle), b > a
     for (std::uint32_t a = 0; a < n; ++a)
+    {
+      link.clear();
       for (std::uint32_t i = stars.offset[a]; i < stars.offset[a + 1]; ++i)
         for (const std::uint32_t b : out[stars.star[i]])
+          if (b > a)
+            link.emplace_back(b, stars.star[i]);
+      std::sort(link.begin(), link.end());
+      for (std::size_t i = 0; i < link.size();)
+      {
+        const std::uint32_t b = link[i].first;
+        // +1 for a triangle that runs a -> b, -1 for b -> a.
+        auto direction = [&](const Triangle& t) {
+          const int k = cornerOf(t, a);
+          return t[(k + 1) % 3] == b ? 1 : -1;
+        };
+        const int d0 = direction(out[link[i].second]);
+        bool have_pair = false;
+        std::size_t j = i + 1;
+        for (; j < link.size() && link[j].first == b; ++j)
         {
-          if (b <= a || seen[b] == a)
-            continue;
-          seen[b] = a;
-          // +1 for a triangle that runs a -> b, -1 for b -> a.
-          auto direction = [&](const Triangle& t) {
-            const int k = cornerOf(t, a);
-            return t[(k + 1) % 3] == b ? 1 : -1;
-          };
-          const int d0 = direction(out[stars.star[i]]);
-          bool have_pair = false;
-          for (std::uint32_t j = i + 1; j < stars.offset[a + 1]; ++j)
-          {
-            const Triangle& t = out[stars.star[j]];
-            if (t[0] != b && t[1] != b && t[2] != b)
-              continue;
-            if (!have_pair && direction(t) == -d0)
-              have_pair = true;
-            else
-              keep[stars.star[j]] = 0;
-          }
+          if (!have_pair && direction(out[link[j].second]) == -d0)
+            have_pair = true;
+          else
+            keep[link[j].second] = 0;
         }
+        i = j;
+      }
+    }
   }
   // Vertex fans: a vertex keeps its largest fan (triangles connected through edges at it). Removing
   // a fan can split a neighbour's star, so the neighbours are looked at again (a work list).

@@ -201,6 +201,23 @@ inline std::vector<std::uint32_t> sideNeighbours(const std::vector<Triangle>& tr
   return nbr;
 }
 
+/// Triangles in lexicographic order of their corners (each over `num_points` vertices): a radix
+/// sort on the corners packed into one key when they fit, else a comparison sort (one result).
+inline void sortTriangles(std::vector<Triangle>& triangles, std::size_t num_points)
+{
+  int bits = 1;
+  while (bits < 32 && (std::size_t{1} << bits) < num_points)
+    ++bits;
+  if (3 * bits > 64)
+  {
+    std::sort(triangles.begin(), triangles.end());
+    return;
+  }
+  radixSortStable(triangles, [bits](const Triangle& t) {
+    return (static_cast<std::uint64_t>(t[0]) << (2 * bits)) | (static_cast<std::uint64_t>(t[1]) << bits) | t[2];
+  });
+}
+
 struct UnionFind
 {
   std::vector<std::uint32_t> parent;

@@ -314,7 +314,7 @@ std::vector<Triangle> candidateTriangles(const std::vector<Eigen::Vector3d>& poi
   // the order in which CGAL stores its cells.
   for (Triangle& t : cand)
     std::sort(t.begin(), t.end());
-  std::sort(cand.begin(), cand.end());
+  sortTriangles(cand, n);
   st.candidate_triangles = cand.size();
   return cand;
 }
