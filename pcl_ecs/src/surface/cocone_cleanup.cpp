@@ -789,19 +789,21 @@ public:
     at_.emplace(out_, keep_, n);
     // The candidate cycles a < b < c, in index order: c a common neighbour of the edge ab.
     std::vector<std::uint32_t> offset(n + 1, 0), nbrs;
+    std::vector<std::uint32_t> mark(n, kNone);  // mark[x] == v: x is listed as v's neighbour
     for (std::uint32_t v = 0; v < n; ++v)
     {
       at_->forEach(v, [&](std::uint32_t t) {
         for (const std::uint32_t x : out_[t])
-          if (x != v)
+          if (x != v && mark[x] != v)
+          {
+            mark[x] = v;
             nbrs.push_back(x);
+          }
       });
-      std::sort(nbrs.begin() + offset[v], nbrs.end());
-      nbrs.erase(std::unique(nbrs.begin() + offset[v], nbrs.end()), nbrs.end());
       offset[v + 1] = static_cast<std::uint32_t>(nbrs.size());
     }
     std::vector<Triangle> cycles;
-    std::vector<std::uint32_t> mark(n, kNone);  // mark[c] == a: c is a neighbour of a
+    std::fill(mark.begin(), mark.end(), kNone);  // mark[c] == a: c is a neighbour of a
     for (std::uint32_t a = 0; a < n; ++a)
     {
       for (std::uint32_t k = offset[a]; k < offset[a + 1]; ++k)
@@ -824,6 +826,7 @@ public:
         }
       }
     }
+    std::sort(cycles.begin(), cycles.end());
     std::size_t removed = 0;
     for (const Triangle& cyc : cycles)
     {
