@@ -9,9 +9,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numeric>
 #include <map>
+#include <numeric>
+#include <random>
 #include <set>
+#include <unordered_map>
 #ifdef _OPENMP
 #include <omp.h>
 #endif
@@ -509,6 +511,92 @@ TEST(CoconeSampleRadii, APointKeptAsItIsTakesItsNearestBallsRadius)
   for (Facet& f : facets)
     std::reverse(f.v.begin(), f.v.end());
   EXPECT_EQ(overlapRadii(pts, facets, radius), expected);
+}
+
+TEST(CoconeEdgeUseMap, AgreesWithAStandardMapThroughInsertsAndErasures)
+{
+  // The clean-up's flat edge map against std::unordered_map: 20,000 random operations (add, look
+  // up, erase, erase what is not there) on keys drawn from a few hundred edges, so that probe runs
+  // collide, wrap round the table and are closed up by erasures; the table grows from empty. After
+  // each batch, forEach visits exactly the entries the oracle holds.
+  using pcl_ecs::surface::detail::EdgeUse;
+  using pcl_ecs::surface::detail::EdgeUseMap;
+  using pcl_ecs::surface::detail::edgeKey;
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<std::uint32_t> vertex(0, 40);
+  EdgeUseMap map;
+  std::unordered_map<std::uint64_t, EdgeUse> oracle;
+  for (int step = 0; step < 20000; ++step)
+  {
+    const std::uint32_t a = vertex(rng), b = vertex(rng);
+    if (a == b)
+      continue;
+    const std::uint64_t key = edgeKey(a, b);
+    switch (rng() % 4)
+    {
+      case 0:
+      case 1:
+      {
+        EdgeUse& u = map[key];
+        EdgeUse& o = oracle[key];
+        ++u.count;
+        ++o.count;
+        u.from = o.from = a;
+        break;
+      }
+      case 2:
+        map.erase(key);
+        oracle.erase(key);
+        break;
+      default:
+      {
+        const EdgeUse* u = map.find(key);
+        const auto it = oracle.find(key);
+        ASSERT_EQ(u != nullptr, it != oracle.end()) << "step " << step;
+        EXPECT_EQ(map.contains(key), it != oracle.end());
+        if (u)
+        {
+          EXPECT_EQ(u->count, it->second.count);
+          EXPECT_EQ(u->from, it->second.from);
+        }
+      }
+    }
+    if (step % 1000 == 999)
+    {
+      std::map<std::uint64_t, std::pair<int, std::uint32_t>> seen, expected;
+      map.forEach([&](std::uint64_t k, const EdgeUse& u) { EXPECT_TRUE(seen.emplace(k, std::make_pair(u.count, u.from)).second); });
+      for (const auto& [k, o] : oracle)
+        expected.emplace(k, std::make_pair(o.count, o.from));
+      ASSERT_EQ(seen, expected) << "step " << step;
+    }
+  }
+  EdgeUseMap empty;
+  EXPECT_EQ(empty.find(edgeKey(1, 2)), nullptr);
+  empty.erase(edgeKey(1, 2));  // nothing to erase, no table yet
+  int visits = 0;
+  empty.forEach([&](std::uint64_t, const EdgeUse&) { ++visits; });
+  EXPECT_EQ(visits, 0);
+}
+
+TEST(CoconeSortTriangles, LexicographicOrderOnPackedKeysAndPastThem)
+{
+  // sortTriangles against std::sort: corners packed into one 64-bit key (21 bits each when the
+  // points number 2^21) and, past that, a comparison sort; duplicates included.
+  using pcl_ecs::surface::detail::sortTriangles;
+  std::mt19937 rng(11);
+  for (const std::size_t points : {std::size_t{5}, std::size_t{1000}, std::size_t{1} << 21, (std::size_t{1} << 21) + 1})
+  {
+    std::uniform_int_distribution<std::uint32_t> corner(0, static_cast<std::uint32_t>(points - 1));
+    std::vector<Triangle> tris(3000);
+    for (Triangle& t : tris)
+      t = {corner(rng), corner(rng), corner(rng)};
+    tris.push_back(tris[17]);
+    tris.push_back({static_cast<std::uint32_t>(points - 1), 0, static_cast<std::uint32_t>(points - 1)});
+    std::vector<Triangle> expected = tris;
+    std::sort(expected.begin(), expected.end());
+    sortTriangles(tris, points);
+    EXPECT_EQ(tris, expected) << points << " points";
+  }
 }
 
 TEST(CoconeSideNeighbours, EachSideHasTheOtherTriangleOfItsEdgeWhenExactlyTwoAreKept)

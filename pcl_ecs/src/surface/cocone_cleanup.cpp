@@ -504,10 +504,10 @@ public:
           bool ok = true;
           for (int k = 0; k < 3 && ok; ++k)
           {
-            const auto it = use.find(edgeKey(tri[k], tri[(k + 1) % 3]));
-            if (it == use.end() || it->second.count == 0)
+            const EdgeUse* u = use.find(edgeKey(tri[k], tri[(k + 1) % 3]));
+            if (!u || u->count == 0)
               continue;
-            if (it->second.count == 1 && it->second.from == tri[(k + 1) % 3])
+            if (u->count == 1 && u->from == tri[(k + 1) % 3])
               ++matched;
             else
               ok = false;
@@ -587,15 +587,14 @@ public:
   {
     std::unordered_map<std::uint32_t, std::uint32_t> hole_next;
     std::vector<std::uint32_t> ambiguous;
-    for (const auto& [key, u] : use_)
-    {
+    use_.forEach([&](std::uint64_t key, const EdgeUse& u) {
       if (u.count != 1)
-        continue;
+        return;
       const auto lo = static_cast<std::uint32_t>(key >> 32), hi = static_cast<std::uint32_t>(key & 0xffffffffu);
       const std::uint32_t a = u.from, b = (a == lo ? hi : lo);
       if (!hole_next.emplace(b, a).second)
         ambiguous.push_back(b);
-    }
+    });
     for (const std::uint32_t v : ambiguous)
       hole_next.erase(v);  // a walk reaching it ends there
     bool all_closed = false;
@@ -728,7 +727,7 @@ private:
     std::unordered_set<std::uint64_t> chords;
     auto chordOk = [&](std::uint32_t x, std::uint32_t y) {
       const std::uint64_t key = edgeKey(x, y);
-      if (use_.count(key) || chords.count(key))
+      if (use_.contains(key) || chords.count(key))
         return false;
       if (guard > 0)
       {
@@ -913,8 +912,8 @@ private:
     const auto [a, b, c] = cyc;
     for (int k = 0; k < 3; ++k)
     {
-      const auto it = use_.find(edgeKey(cyc[k], cyc[(k + 1) % 3]));
-      if (it == use_.end() || it->second.count != 2)
+      const EdgeUse* u = use_.find(edgeKey(cyc[k], cyc[(k + 1) % 3]));
+      if (!u || u->count != 2)
         return false;
     }
     if (isFace(a, b, c))
@@ -1010,7 +1009,7 @@ private:
       v.erase(std::unique(v.begin(), v.end()), v.end());
       long chi = 0;
       for (const std::uint64_t key : e)
-        if (const auto it = use_.find(key); it != use_.end() && it->second.count > 0)
+        if (const EdgeUse* u = use_.find(key); u && u->count > 0)
           --chi;
       for (const std::uint32_t x : v)
         chi += inMesh(x) ? 1 : 0;
@@ -1031,11 +1030,11 @@ private:
     sorted_edges.erase(std::unique(sorted_edges.begin(), sorted_edges.end()), sorted_edges.end());
     for (const std::uint64_t key : sorted_edges)
     {
-      const auto it = use_.find(key);
-      if (it == use_.end() || it->second.count != 1)
+      const EdgeUse* u = use_.find(key);
+      if (!u || u->count != 1)
         continue;
       const auto lo = static_cast<std::uint32_t>(key >> 32), hi = static_cast<std::uint32_t>(key & 0xffffffffu);
-      const std::uint32_t from = it->second.from, to = from == lo ? hi : lo;
+      const std::uint32_t from = u->from, to = from == lo ? hi : lo;
       ok = ok && hole_next.emplace(to, from).second;
     }
     bool all_closed = false;  // false: a hole goes on along an edge that was open before
@@ -1124,7 +1123,7 @@ private:
       ++stamp[i];
       const std::uint32_t prev = loop[before[i]], cur = loop[i], next = loop[after[i]];
       const std::uint64_t key = edgeKey(prev, next);
-      if (use_.count(key) || chords.count(key))
+      if (use_.contains(key) || chords.count(key))
         return;
       const double len = (points[prev] - points[next]).squaredNorm();
       if (ratio_guard && params_.max_edge_ratio > 0)
@@ -1176,27 +1175,23 @@ private:
     for (int k = 0; k < 3; ++k)
     {
       const std::uint32_t x = tri[k], y = tri[(k + 1) % 3];
-      const auto it = use_.find(edgeKey(x, y));
-      if (--it->second.count == 0)
+      const std::uint64_t key = edgeKey(x, y);
+      EdgeUse* u = use_.find(key);
+      if (--u->count == 0)
       {
-        use_.erase(it);
+        use_.erase(key);
         continue;
       }
-      if (it->second.count != 1)
+      if (u->count != 1)
         continue;
       for (const std::uint32_t t : trianglesAt(x, y))
         for (int j = 0; j < 3; ++j)
           if ((out_[t][j] == x && out_[t][(j + 1) % 3] == y) || (out_[t][j] == y && out_[t][(j + 1) % 3] == x))
-            it->second.from = out_[t][j];
+            u->from = out_[t][j];
     }
   }
 
 private:
-  struct EdgeUse
-  {
-    int count = 0;
-    std::uint32_t from = 0;  // for one triangle: the edge is traversed from -> other
-  };
   void addEdges(const Triangle& tri)
   {
     for (int k = 0; k < 3; ++k)
@@ -1213,7 +1208,7 @@ private:
   std::vector<Triangle>& out_;
   std::vector<char>& keep_;
   CoconeStats& st_;
-  std::unordered_map<std::uint64_t, EdgeUse> use_;
+  EdgeUseMap use_;
   std::optional<VertexTriangles> at_;  // while removeSmallHandles runs: the triangles at each vertex
   mutable std::vector<std::int8_t> side_;  // aroundHandle's search: the side each triangle was reached from
 };
