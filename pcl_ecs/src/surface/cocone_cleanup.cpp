@@ -221,39 +221,37 @@ std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n)
   std::vector<char> keep(out.size(), 1);
   {
     // Edges: keep the first two triangles in walk order (triangle order), and only if they
-    // disagree in direction. The triangles at edge ab (a < b) are those of a's star that hold b:
-    // a's link (b, triangle) sorted lists them in triangle order.
+    // disagree in direction. The triangles at edge ab (a < b) are those of a's star that hold b,
+    // met in triangle order along the star: seen[b] == a once the first is met, with its direction
+    // (+1 for a triangle that runs a -> b, -1 for b -> a) and whether the pair is complete.
     const VertexStars stars = vertexStars(n, out);
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> link;  // (b, triangle), b > a
+    std::vector<std::uint32_t> seen(n, kNone);
+    std::vector<signed char> first_direction(n, 0);
+    std::vector<char> have_pair(n, 0);
     for (std::uint32_t a = 0; a < n; ++a)
-    {
-      link.clear();
       for (std::uint32_t i = stars.offset[a]; i < stars.offset[a + 1]; ++i)
-        for (const std::uint32_t b : out[stars.star[i]])
-          if (b > a)
-            link.emplace_back(b, stars.star[i]);
-      std::sort(link.begin(), link.end());
-      for (std::size_t i = 0; i < link.size();)
       {
-        const std::uint32_t b = link[i].first;
-        // +1 for a triangle that runs a -> b, -1 for b -> a.
-        auto direction = [&](const Triangle& t) {
-          const int k = cornerOf(t, a);
-          return t[(k + 1) % 3] == b ? 1 : -1;
-        };
-        const int d0 = direction(out[link[i].second]);
-        bool have_pair = false;
-        std::size_t j = i + 1;
-        for (; j < link.size() && link[j].first == b; ++j)
+        const std::uint32_t t = stars.star[i];
+        const Triangle& tri = out[t];
+        const int k = cornerOf(tri, a);
+        for (int j = 1; j < 3; ++j)
         {
-          if (!have_pair && direction(out[link[j].second]) == -d0)
-            have_pair = true;
+          const std::uint32_t b = tri[(k + j) % 3];
+          if (b <= a)
+            continue;
+          const signed char direction = j == 1 ? 1 : -1;
+          if (seen[b] != a)
+          {
+            seen[b] = a;
+            first_direction[b] = direction;
+            have_pair[b] = 0;
+          }
+          else if (!have_pair[b] && direction == -first_direction[b])
+            have_pair[b] = 1;
           else
-            keep[link[j].second] = 0;
+            keep[t] = 0;
         }
-        i = j;
       }
-    }
   }
   // Vertex fans: a vertex keeps its largest fan (triangles connected through edges at it). Removing
   // a fan can split a neighbour's star, so the neighbours are looked at again (a work list).

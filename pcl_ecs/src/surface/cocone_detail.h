@@ -167,36 +167,44 @@ inline VertexStars vertexStars(std::size_t num_points, const std::vector<Triangl
 /// vertexStars(num_points, triangles, keep); unkept triangles get kNone on every side.
 inline std::vector<std::uint32_t> sideNeighbours(const std::vector<Triangle>& triangles, const VertexStars& stars)
 {
+  const std::size_t n = stars.offset.size() - 1;
   std::vector<std::uint32_t> nbr(3 * triangles.size(), kNone);
   auto sideOf = [&](std::uint32_t t, std::uint32_t a, std::uint32_t b) {
     const Triangle& tri = triangles[t];
     const int k = cornerOf(tri, a);
     return tri[(k + 1) % 3] == b ? k : (k + 2) % 3;
   };
-  // At each vertex a, the other corners b of its triangles, sorted: an edge ab (b > a, so each
-  // edge once) held by exactly two of them joins those two across their sides on it.
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> link;  // (b, triangle)
-  for (std::uint32_t a = 0; a + 1 < stars.offset.size(); ++a)
+  // At each vertex a, the triangles of its star holding b (b > a, so each edge once), counted: an
+  // edge ab held by exactly two joins them across their sides on it. seen[b] == a marks b as met
+  // at a; first[b] and second[b] are the first two triangles met there.
+  std::vector<std::uint32_t> seen(n, kNone), first(n), second(n), holders(n);
+  for (std::uint32_t a = 0; a < n; ++a)
   {
-    link.clear();
     for (std::uint32_t i = stars.offset[a]; i < stars.offset[a + 1]; ++i)
-      for (const std::uint32_t x : triangles[stars.star[i]])
-        if (x > a)
-          link.emplace_back(x, stars.star[i]);
-    std::sort(link.begin(), link.end());
-    for (std::size_t i = 0; i < link.size();)
     {
-      std::size_t j = i + 1;
-      while (j < link.size() && link[j].first == link[i].first)
-        ++j;
-      if (j - i == 2)
+      const std::uint32_t t = stars.star[i];
+      for (const std::uint32_t b : triangles[t])
       {
-        const std::uint32_t b = link[i].first, t0 = link[i].second, t1 = link[i + 1].second;
-        nbr[3 * static_cast<std::size_t>(t0) + static_cast<std::size_t>(sideOf(t0, a, b))] = t1;
-        nbr[3 * static_cast<std::size_t>(t1) + static_cast<std::size_t>(sideOf(t1, a, b))] = t0;
+        if (b <= a)
+          continue;
+        if (seen[b] != a)
+        {
+          seen[b] = a;
+          first[b] = t;
+          holders[b] = 1;
+        }
+        else if (++holders[b] == 2)
+          second[b] = t;
       }
-      i = j;
     }
+    for (std::uint32_t i = stars.offset[a]; i < stars.offset[a + 1]; ++i)
+      for (const std::uint32_t b : triangles[stars.star[i]])
+        if (b > a && holders[b] == 2 && first[b] == stars.star[i])
+        {
+          const std::uint32_t t0 = first[b], t1 = second[b];
+          nbr[3 * static_cast<std::size_t>(t0) + static_cast<std::size_t>(sideOf(t0, a, b))] = t1;
+          nbr[3 * static_cast<std::size_t>(t1) + static_cast<std::size_t>(sideOf(t1, a, b))] = t0;
+        }
   }
   return nbr;
 }

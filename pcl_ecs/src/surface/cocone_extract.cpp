@@ -277,6 +277,13 @@ Extraction extractSurface(const std::vector<Eigen::Vector3d>& points, const std:
       for (int k = 0; k < 3; ++k)
       {
         const std::uint32_t a = tri[k], b = tri[(k + 1) % 3], c = tri[(k + 2) % 3];
+        // Every other live triangle at the edge oriented already (the walk came across it from
+        // there): whichever turns least, there is nothing to push.
+        bool open = false;
+        for (auto [it, end] = edges.at(t, a, b); it != end && !open; ++it)
+          open = it->second != t && alive[it->second] && orient[it->second] == 0;
+        if (!open)
+          continue;
         double turn = 0.0;
         const std::uint32_t next = leastTurning(points, cand, edges, alive, t, a, b, c, nrm, &turn);
         if (next == kNone || orient[next] != 0)
