@@ -2,6 +2,7 @@
 // notches and holes closed, loops sealed when asked, small components dropped.
 #include "cocone_detail.h"
 
+#include <cstring>
 #include <deque>
 #include <functional>
 #include <optional>
@@ -214,8 +215,8 @@ std::size_t orientPieces(const std::vector<Eigen::Vector3d>& points, const std::
   return reversed;
 }
 
-/// Step 7, first part: at most two triangles per edge (the first two in walk order, if they
-/// disagree in direction) and one fan per vertex (its largest); returns which triangles stay.
+}  // namespace
+
 std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n)
 {
   std::vector<char> keep(out.size(), 1);
@@ -268,6 +269,9 @@ std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n)
         queued[v] = 1;
       }
     std::vector<std::uint32_t> local, parent, size;
+    std::vector<std::uint64_t> stamp(n, 0);
+    std::vector<std::uint32_t> at_corner(n, 0);
+    std::uint64_t visit = 0;
     while (!work.empty())
     {
       const std::uint32_t v = work.front();
@@ -287,21 +291,25 @@ std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n)
           x = parent[x] = parent[parent[x]];
         return x;
       };
+      // Two triangles at v are joined when they share another corner (an edge at v): each corner
+      // remembers the first local triangle that had it (at_corner[x], valid while stamp[x] is this
+      // visit's number; v may be visited again). A component's root is its smallest local index
+      // whatever the order of the unions.
+      ++visit;
       for (std::uint32_t i = 0; i < m; ++i)
-        for (std::uint32_t j = i + 1; j < m; ++j)
+        for (const std::uint32_t x : out[local[i]])
         {
-          const Triangle& ti = out[local[i]];
-          const Triangle& tj = out[local[j]];
-          bool shared = false;
-          for (std::uint32_t x : ti)
-            if (x != v && (x == tj[0] || x == tj[1] || x == tj[2]))
-              shared = true;
-          if (shared)
+          if (x == v)
+            continue;
+          if (stamp[x] != visit)
           {
-            const std::uint32_t ri = find(i), rj = find(j);
-            if (ri != rj)
-              parent[std::max(ri, rj)] = std::min(ri, rj);
+            stamp[x] = visit;
+            at_corner[x] = i;
+            continue;
           }
+          const std::uint32_t ri = find(i), rj = find(at_corner[x]);
+          if (ri != rj)
+            parent[std::max(ri, rj)] = std::min(ri, rj);
         }
       size.assign(m, 0);
       for (std::uint32_t i = 0; i < m; ++i)
@@ -325,6 +333,9 @@ std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n)
   }
   return keep;
 }
+
+namespace
+{
 
 /// A hole whose ear clipping stops at a chord longer than the gap guard with at most this many
 /// vertices left keeps the triangles made so far; the rest stays open (MeshFill::closeLoops).
@@ -1302,7 +1313,14 @@ std::vector<Triangle> keepLargeComponents(const std::vector<Eigen::Vector3d>& po
         by_low_x.emplace_back(x0, t);
         widest_x = std::max(widest_x, x1 - x0);
       }
-    std::sort(by_low_x.begin(), by_low_x.end());
+    // By x (then triangle: the items are in triangle order and the sort is stable), on the
+    // double's bits made to order as the numbers do (the same order but for -0 before +0, which
+    // the box test below does not mind).
+    radixSortStable(by_low_x, [](const std::pair<double, std::uint32_t>& e) {
+      std::uint64_t u;
+      std::memcpy(&u, &e.first, sizeof u);
+      return (u >> 63) != 0 ? ~u : u | (std::uint64_t{1} << 63);
+    });
   };
   for (std::uint32_t r = 0; r < kept.size(); ++r)
   {

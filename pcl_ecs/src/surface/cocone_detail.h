@@ -476,6 +476,12 @@ bool isSlit(const std::vector<Eigen::Vector3d>& points, const std::vector<double
 /// at 1.32 × or more; any fraction from 0.6 to 1.25 cuts the same ones there.
 constexpr double kThinPartGirth = 0.75;
 
+/// Step 7, first part: at most two triangles per edge (the first two in triangle order, if they
+/// disagree in direction) and one fan per vertex (its largest: the first of the largest, by its
+/// first triangle in the vertex's star; a vertex whose fans change is looked at again); returns
+/// which triangles stay (cocone_cleanup.cpp).
+std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n);
+
 /// Step 7, last part: the components (through shared edges) of the triangles t with keep[t];
 /// those of fewer than params.min_component_triangles triangles are dropped, and so are the second
 /// layers over the largest one: a closed piece of at most 1% of its triangles whose every vertex
