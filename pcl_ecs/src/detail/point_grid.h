@@ -14,6 +14,8 @@
 
 #include <Eigen/Core>
 
+#include "flat_key_map.h"
+
 namespace pcl_ecs
 {
 
@@ -82,7 +84,7 @@ private:
   template <typename F>
   void forEachAround(const Eigen::Vector3d& q, double r, F visit) const
   {
-    if (slots_.empty())
+    if (lists_.empty())
       return;
     const std::array<std::int64_t, 3> c = cellOf(q);
     // Squared distance from q to the slab of the neighbour below / above along each axis (0 for
@@ -127,66 +129,29 @@ private:
     return {f(p.x()), f(p.y()), f(p.z())};
   }
   /// 21 bits of each cell coordinate (coordinates clamped to ±1e12 cells: cells that share a key
-  /// only share a list; the distances decide).
+  /// only share a list; the distances decide). Bit 63 stays clear: no key is FlatKeyMap's kEmpty.
   static std::uint64_t key(std::int64_t x, std::int64_t y, std::int64_t z)
   {
     auto u = [](std::int64_t v) { return static_cast<std::uint64_t>(v) & 0x1FFFFFu; };
     return u(x) | (u(y) << 21) | (u(z) << 42);
   }
 
-  // Open addressing with linear probing: slot -> (key, index into lists_); at most half full.
-  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};  // no key has bit 63 set
-  struct Slot
-  {
-    std::uint64_t key;
-    std::uint32_t list;
-  };
-  std::size_t home(std::uint64_t k) const
-  {
-    return static_cast<std::size_t>((k * 0x9E3779B97F4A7C15ull) >> shift_);
-  }
-  /// The slot holding key k, or the empty slot where it would go (the table is never full).
-  std::size_t slotOf(std::uint64_t k) const
-  {
-    const std::size_t mask = slots_.size() - 1;
-    std::size_t h = home(k);
-    while (slots_[h].key != k && slots_[h].key != kEmpty)
-      h = (h + 1) & mask;
-    return h;
-  }
   const std::vector<Entry>* find(std::uint64_t k) const
   {
-    const Slot& s = slots_[slotOf(k)];
-    return s.key == k ? &lists_[s.list] : nullptr;
+    const std::uint32_t* list = cells_.find(k);
+    return list ? &lists_[*list] : nullptr;
   }
   std::vector<Entry>& listFor(std::uint64_t k)
   {
-    if (2 * (lists_.size() + 1) > slots_.size())
-      rehash(std::max<std::size_t>(64, 2 * slots_.size()));
-    Slot& s = slots_[slotOf(k)];
-    if (s.key != k)
-    {
-      s = {k, static_cast<std::uint32_t>(lists_.size())};
-      lists_.emplace_back();
-    }
-    return lists_[s.list];
-  }
-  void rehash(std::size_t size)  // size: a power of two
-  {
-    shift_ = 64;
-    for (std::size_t s = size; s > 1; s >>= 1)
-      --shift_;
-    std::vector<Slot> old(size, Slot{kEmpty, 0});
-    old.swap(slots_);
-    for (const Slot& s : old)
-      if (s.key != kEmpty)
-        slots_[slotOf(s.key)] = s;
+    if (const std::uint32_t* list = cells_.find(k))
+      return lists_[*list];
+    cells_[k] = static_cast<std::uint32_t>(lists_.size());
+    return lists_.emplace_back();
   }
 
   double side_, inv_;
-  std::vector<Slot> slots_;               // empty until the first insert
-  std::vector<std::vector<Entry>> lists_; // one per occupied cell
-  int shift_ = 64;
+  FlatKeyMap<std::uint32_t> cells_;        // cell key -> its list in lists_
+  std::vector<std::vector<Entry>> lists_;  // one per occupied cell
 };
 
 }  // namespace pcl_ecs

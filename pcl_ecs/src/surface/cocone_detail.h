@@ -6,6 +6,7 @@
 
 #include <pcl_ecs/surface/cocone.h>
 
+#include "../detail/flat_key_map.h"
 #include "../detail/radix_sort.h"
 
 #include <Eigen/Geometry>
@@ -233,105 +234,9 @@ struct EdgeUse
   std::uint32_t from = 0;  // for one triangle: the edge is traversed from -> other
 };
 
-/// Edge key (edgeKey) → EdgeUse: open addressing with linear probing, at most half full, erased
-/// entries closed up by shifting back the ones after them (no tombstones). One flat array: the
-/// clean-up adds and looks up every edge of the mesh, which a node-based map pays an allocation
-/// each for.
-class EdgeUseMap
-{
-public:
-  void reserve(std::size_t n)
-  {
-    std::size_t size = 16;
-    while (size < 2 * n)
-      size *= 2;
-    if (size > slots_.size())
-      rehash(size);
-  }
-  EdgeUse* find(std::uint64_t key)
-  {
-    if (slots_.empty())
-      return nullptr;
-    Slot& s = slots_[slotOf(key)];
-    return s.key == key ? &s.use : nullptr;
-  }
-  const EdgeUse* find(std::uint64_t key) const { return const_cast<EdgeUseMap*>(this)->find(key); }
-  bool contains(std::uint64_t key) const { return find(key) != nullptr; }
-  /// The entry of `key`, made (count 0) when there is none.
-  EdgeUse& operator[](std::uint64_t key)
-  {
-    if (2 * (size_ + 1) > slots_.size())
-      rehash(std::max<std::size_t>(16, 2 * slots_.size()));
-    Slot& s = slots_[slotOf(key)];
-    if (s.key != key)
-    {
-      s = {key, EdgeUse{}};
-      ++size_;
-    }
-    return s.use;
-  }
-  void erase(std::uint64_t key)
-  {
-    if (slots_.empty())
-      return;
-    const std::size_t mask = slots_.size() - 1;
-    std::size_t hole = slotOf(key);
-    if (slots_[hole].key != key)
-      return;
-    --size_;
-    // Backward shift: an entry after the hole moves into it unless its home lies cyclically in
-    // (hole, its slot].
-    for (std::size_t j = (hole + 1) & mask; slots_[j].key != kEmpty; j = (j + 1) & mask)
-    {
-      const std::size_t home = homeOf(slots_[j].key);
-      if (((j - home) & mask) >= ((j - hole) & mask))
-      {
-        slots_[hole] = slots_[j];
-        hole = j;
-      }
-    }
-    slots_[hole].key = kEmpty;
-  }
-  /// f(key, use) for every entry, in slot order.
-  template <class F>
-  void forEach(F&& f) const
-  {
-    for (const Slot& s : slots_)
-      if (s.key != kEmpty)
-        f(s.key, s.use);
-  }
-
-private:
-  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};  // no edge key: both ends would be kNone
-  struct Slot
-  {
-    std::uint64_t key;
-    EdgeUse use;
-  };
-  std::size_t homeOf(std::uint64_t key) const { return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> shift_); }
-  std::size_t slotOf(std::uint64_t key) const
-  {
-    const std::size_t mask = slots_.size() - 1;
-    std::size_t h = homeOf(key);
-    while (slots_[h].key != key && slots_[h].key != kEmpty)
-      h = (h + 1) & mask;
-    return h;
-  }
-  void rehash(std::size_t size)  // a power of two
-  {
-    shift_ = 64;
-    for (std::size_t x = size; x > 1; x >>= 1)
-      --shift_;
-    std::vector<Slot> old(size, Slot{kEmpty, EdgeUse{}});
-    old.swap(slots_);
-    for (const Slot& e : old)
-      if (e.key != kEmpty)
-        slots_[slotOf(e.key)] = e;
-  }
-  std::vector<Slot> slots_;
-  std::size_t size_ = 0;
-  int shift_ = 64;
-};
+/// Edge key (edgeKey) → EdgeUse, in one flat array: the clean-up adds and looks up every edge of
+/// the mesh, which a node-based map pays an allocation each for.
+using EdgeUseMap = FlatKeyMap<EdgeUse>;
 
 struct UnionFind
 {
