@@ -53,6 +53,7 @@ struct Input
   bool one_sided = false;       // the cloud sees only part of the reference (a single range view)
   std::vector<Eigen::Vector3d> points;
   std::vector<double> radius;  // per point, its ball's radius (pointRadii); empty for a raw scan
+  surface::ScanSupport support;  // the scan a simplified cloud came from, as pcd_simplify --mesh passes it
 };
 
 struct MethodResult
@@ -108,7 +109,13 @@ Input simplified(std::string name, std::string reference, bool one_sided, const 
     f.setTargetSize(static_cast<std::size_t>(std::lround(ratio * static_cast<double>(cloud->size()))));
   pcl::PointCloud<pcl::PointXYZ> out;
   f.filter(out);
-  return Input{std::move(name), std::move(reference), one_sided, fromCloud(out), pointRadii(f.getResult())};
+  surface::ScanSupport scan;
+  scan.points.reserve(cloud->size());
+  for (const auto& p : *cloud)
+    scan.points.push_back(p.getVector3fMap());
+  scan.sample_of = f.getResult().input_to_output;
+  return Input{std::move(name), std::move(reference), one_sided, fromCloud(out), pointRadii(f.getResult()),
+               std::move(scan)};
 }
 
 /// Normals by PCA of 20 neighbours, oriented away from the centroid (the inputs are closed-ish
@@ -173,13 +180,19 @@ MethodResult fromPolygonMesh(const std::string& method, const pcl::PolygonMesh& 
   return r;
 }
 
+/// --tunnels: Cocone opens the tunnels its walk capped, judged against the scan (pcd_simplify
+/// --mesh --tunnels).
+bool g_tunnels = false;
+
 MethodResult runCocone(const Input& in)
 {
   MethodResult r;
   r.method = "Cocone (pcl_ecs)";
   r.vertices = in.points;
   const auto t0 = Clock::now();
-  const auto res = surface::coconeReconstruct(in.points, surface::CoconeParameters(), in.radius);
+  surface::CoconeParameters params;
+  params.open_tunnels = g_tunnels;
+  const auto res = surface::coconeReconstruct(in.points, params, in.radius, in.support);
   r.seconds = since(t0);
   r.triangles = res.triangles;
   const auto& s = res.stats;
@@ -434,7 +447,7 @@ int main(int argc, char** argv)
 {
   if (argc < 3)
   {
-    std::fprintf(stderr, "usage: bench_surface SHARED_DATA_DIR OUT.json [--closed [--quick] [--meshes DIR]] [--only NAME]\n");
+    std::fprintf(stderr, "usage: bench_surface SHARED_DATA_DIR OUT.json [--closed [--quick] [--meshes DIR]] [--only NAME] [--tunnels]\n");
     return 2;
   }
   const std::string data = argv[1], out_path = argv[2];
@@ -451,6 +464,8 @@ int main(int argc, char** argv)
       quick = true;
     else if (a == "--meshes" && i + 1 < argc)
       mesh_dir = argv[++i];
+    else if (a == "--tunnels")
+      g_tunnels = true;
     else
     {
       std::fprintf(stderr, "bench_surface: unknown argument %s\n", a.c_str());

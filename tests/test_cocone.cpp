@@ -934,7 +934,7 @@ std::vector<Triangle> cleanUpOnly(const std::vector<Eigen::Vector3d>& points, do
   ex.order.resize(ex.out.size());
   std::iota(ex.order.begin(), ex.order.end(), 0u);
   const std::vector<double> sp(points.size(), spacing);
-  return d::cleanUp(points, sp, CoconeParameters(), cand, alive, edges, ex, st);
+  return d::cleanUp(points, sp, CoconeParameters(), cand, alive, edges, ex, {}, st);
 }
 
 /// The mesh is one closed 2-manifold of a sphere's topology (χ 2) over the sphere's points.
@@ -1509,6 +1509,154 @@ TEST(CoconeScan, TheSimplifiedGearsKeptPointsAreJudgedByTheirNearestBall)
   // Closed, with the gear's χ (0: one hole through it).
   EXPECT_TRUE(topo.isClosedManifold());
   EXPECT_EQ(topo.euler_characteristic, 0);
+}
+
+// ---- tunnels ------------------------------------------------------------------------------------
+
+namespace
+{
+/// The turbine scan simplified to `percent`% (a target size): the output points, their ball radii
+/// and the scan with the sample standing for each of its points (Result::input_to_output).
+struct SimplifiedTurbine
+{
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> radius;
+  pcl_ecs::surface::ScanSupport scan;
+  std::string error;
+};
+bool simplifiedTurbine(std::size_t percent, SimplifiedTurbine& s)
+{
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  if (pcl::io::loadPCDFile(pcl_ecs_test::sharedData("turbine_scan.pcd"), *cloud) != 0)
+    return false;
+  pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> f;
+  f.setInputCloud(cloud);
+  f.setTargetSize(cloud->size() * percent / 100);
+  pcl::PointCloud<pcl::PointXYZ> out;
+  f.filter(out);
+  s.error = f.getResult().error;
+  for (const auto& p : out)
+    s.points.emplace_back(p.x, p.y, p.z);
+  s.radius = pcl_ecs::pointRadii(f.getResult());
+  for (const auto& p : *cloud)
+    s.scan.points.push_back(p.getVector3fMap());
+  s.scan.sample_of = f.getResult().input_to_output;
+  return true;
+}
+}  // namespace
+
+TEST(CoconeTunnels, TheTurbinesBoltHolesOpenWithItsScan)
+{
+  // The turbine (genus 11: the bore and ten bolt holes through its flange, χ −20) simplified to
+  // 10%: each bolt hole is about one sample spacing across, and the walk caps it on both faces of
+  // the flange (χ 0: the bore alone). With the scan, the ten pairs of caps span empty space and
+  // are replaced by bands on the holes' walls: χ −20, closed, one piece. Without open_tunnels, or
+  // without the scan, the mesh is the one without tunnels.
+  SimplifiedTurbine s;
+  if (!simplifiedTurbine(10, s))
+    GTEST_SKIP() << "shared data missing";
+  ASSERT_TRUE(s.error.empty()) << s.error;
+  CoconeParameters on;
+  on.open_tunnels = true;
+  const auto plain = coconeReconstruct(s.points, CoconeParameters(), s.radius, s.scan);
+  const auto no_scan = coconeReconstruct(s.points, on, s.radius);
+  const auto with = coconeReconstruct(s.points, on, s.radius, s.scan);
+  ASSERT_TRUE(plain.ok() && no_scan.ok() && with.ok());
+  EXPECT_EQ(plain.triangles, no_scan.triangles);
+  EXPECT_EQ(plain.stats.opened_tunnels, 0u);
+  const MeshTopology before = analyzeTopology(s.points.size(), plain.triangles);
+  EXPECT_TRUE(before.isClosedManifold());
+  EXPECT_EQ(before.euler_characteristic, 0);
+  const MeshTopology after = analyzeTopology(s.points.size(), with.triangles);
+  EXPECT_EQ(with.stats.opened_tunnels, 10u);
+  EXPECT_GT(with.stats.tunnel_triangles, 0u);
+  EXPECT_TRUE(after.isClosedManifold());
+  EXPECT_TRUE(after.consistently_oriented);
+  EXPECT_EQ(after.components, 1u);
+  EXPECT_EQ(after.euler_characteristic, -20);
+  // Each scan point given to its nearest sample instead of the filter's own: the same ten.
+  pcl_ecs::surface::ScanSupport nearest = s.scan;
+  nearest.sample_of.clear();
+  const auto by_nearest = coconeReconstruct(s.points, on, s.radius, nearest);
+  ASSERT_TRUE(by_nearest.ok());
+  EXPECT_EQ(by_nearest.stats.opened_tunnels, 10u);
+  EXPECT_EQ(analyzeTopology(s.points.size(), by_nearest.triangles).euler_characteristic, -20);
+  // One thread or several: the same triangles.
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const auto serial = coconeReconstruct(s.points, on, s.radius, s.scan);
+  omp_set_num_threads(threads);
+  EXPECT_EQ(serial.triangles, with.triangles);
+  // pcl_ecs::Cocone with the scan, its samples numbered like the input cloud (here behind a junk
+  // point each, used through the indices): the same mesh.
+  auto cloud = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  auto indices = std::make_shared<pcl::Indices>();
+  std::vector<double> radius;
+  pcl_ecs::surface::ScanSupport scan = s.scan;
+  for (std::size_t i = 0; i < s.points.size(); ++i)
+  {
+    cloud->push_back(pcl::PointXYZ(100.0f, 100.0f, 100.0f));
+    radius.push_back(0.0);
+    cloud->push_back(pcl_ecs_test::toPoint(s.points[i]));
+    radius.push_back(s.radius[i]);
+    indices->push_back(static_cast<pcl::index_t>(2 * i + 1));
+  }
+  for (std::int64_t& o : scan.sample_of)
+    o = o >= 0 ? 2 * o + 1 : -1;
+  pcl_ecs::Cocone<pcl::PointXYZ> cocone;
+  cocone.setInputCloud(cloud);
+  cocone.setIndices(indices);
+  cocone.setSampleRadii(radius);
+  cocone.setScanSupport(scan);
+  cocone.setParameters(on);
+  pcl::PolygonMesh mesh;
+  cocone.reconstruct(mesh);
+  ASSERT_TRUE(cocone.getLastError().empty()) << cocone.getLastError();
+  EXPECT_EQ(cocone.getStats().opened_tunnels, 10u);
+  ASSERT_EQ(mesh.polygons.size(), with.triangles.size());
+  for (std::size_t t = 0; t < with.triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k)
+      EXPECT_EQ(mesh.polygons[t].vertices[k], 2 * with.triangles[t][k] + 1);
+}
+
+TEST(CoconeTunnels, ASurfaceWithoutTunnelsIsLeftAsItIs)
+{
+  // A sphere sampled by 2,000 points, its scan 20,000 more points of it: no patch spans empty
+  // space, so the mesh is the same triangle for triangle.
+  const auto samples = randomSphere(2000, 1.0, 5);
+  pcl_ecs::surface::ScanSupport scan;
+  for (const auto& p : randomSphere(20000, 1.0, 6))
+    scan.points.push_back(p.cast<float>());
+  CoconeParameters on;
+  on.open_tunnels = true;
+  const auto plain = coconeReconstruct(samples);
+  const auto with = coconeReconstruct(samples, on, {}, scan);
+  ASSERT_TRUE(plain.ok() && with.ok());
+  EXPECT_EQ(with.stats.opened_tunnels, 0u);
+  EXPECT_EQ(plain.triangles, with.triangles);
+}
+
+TEST(CoconeTunnels, AScanWhoseSamplesDoNotMatchIsRefused)
+{
+  const auto samples = randomSphere(500, 1.0, 7);
+  pcl_ecs::surface::ScanSupport scan;
+  for (const auto& p : randomSphere(3000, 1.0, 8))
+    scan.points.push_back(p.cast<float>());
+  CoconeParameters on;
+  on.open_tunnels = true;
+  scan.sample_of.assign(10, 0);  // not one per scan point
+  auto r = coconeReconstruct(samples, on, {}, scan);
+  EXPECT_FALSE(r.ok());
+  EXPECT_NE(r.error.find("sample_of has 10 entries for 3000 scan points"), std::string::npos) << r.error;
+  scan.sample_of.assign(3000, 0);
+  scan.sample_of[17] = 500;  // there are 500 samples: 0..499
+  r = coconeReconstruct(samples, on, {}, scan);
+  EXPECT_FALSE(r.ok());
+  EXPECT_NE(r.error.find("sample_of[17] = 500 names no sample"), std::string::npos) << r.error;
+  // A non-finite scan point is skipped, not an error.
+  scan.sample_of.clear();
+  scan.points[3] = Eigen::Vector3f(std::numeric_limits<float>::quiet_NaN(), 0.0f, 0.0f);
+  EXPECT_TRUE(coconeReconstruct(samples, on, {}, scan).ok());
 }
 
 // ---- watertight ----------------------------------------------------------------------------------

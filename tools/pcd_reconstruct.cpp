@@ -42,6 +42,10 @@ OUTPUT  .ply (binary), .obj or .vtk, by extension; colour is written to PLY and 
 )";
 
 const char* kOptions = R"(
+Scan:
+  --support FILE      the scan INPUT was simplified from (any format INPUT takes), for --tunnels:
+                      each of its points is given to the nearest point of INPUT
+
 Output:
   --stats FILE.json   counts, topology (boundary loops, components, non-manifold edges, Euler
                       characteristic) and time per stage
@@ -54,6 +58,7 @@ distinct points, points on one plane or line, no surface found); 4 output error.
 Examples:
   pcd_reconstruct small.pcd small.ply
   pcd_simplify scan.pcd small.pcd --mesh small.ply       # simplify and mesh in one go
+  pcd_reconstruct small.pcd small.ply --tunnels --support scan.pcd   # open capped bolt holes
   pcd_reconstruct range_view.pcd view.obj --stats view.json
 )";
 
@@ -61,7 +66,7 @@ int run(int argc, char** argv)
 {
   surface::CoconeParameters params;
   std::vector<std::string> pos;
-  std::string stats;
+  std::string stats, support_path;
   bool quiet = false;
   for (ArgWalker args(argc, argv); args.next();)
   {
@@ -73,6 +78,8 @@ int run(int argc, char** argv)
       continue;
     if (a == "--stats")
       stats = value();
+    else if (a == "--support")
+      support_path = value();
     else if (a == "--quiet" || a == "-q")
       quiet = true;
     else if (a.size() > 1 && a[0] == '-')
@@ -82,6 +89,10 @@ int run(int argc, char** argv)
   }
   if (pos.size() != 2)
     throw UsageError("expected INPUT and OUTPUT, got " + std::to_string(pos.size()) + " file name(s) (see --help)");
+  if (params.open_tunnels && support_path.empty())
+    throw UsageError("--tunnels needs --support FILE: the scan the cloud was simplified from");
+  if (!support_path.empty() && !params.open_tunnels)
+    throw UsageError("--support is read by --tunnels only; give both or neither");
   const std::string &input_path = pos[0], &output = pos[1];
   surface::MeshFormat format;
   try
@@ -135,7 +146,20 @@ int run(int argc, char** argv)
         throw ToolError(kExitInput, os.str());
       }
   }
-  const MeshRun mesh = meshCloud(cloud, params, radius);
+  pcl::PCLPointCloud2 scan;
+  if (!support_path.empty())
+  {
+    try
+    {
+      io::readCloud(support_path, scan);
+    }
+    catch (const std::exception& e)
+    {
+      throw ToolError(kExitInput, e.what());
+    }
+  }
+  const MeshRun mesh =
+      meshCloud(cloud, params, radius, support_path.empty() ? surface::ScanSupport{} : scanSupport(scan));
   if (!mesh.result.ok())
     throw ToolError(kExitInput, input_path + ": " + mesh.result.error);
 

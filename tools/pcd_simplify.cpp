@@ -576,7 +576,8 @@ int runTool(int argc, char** argv)
   std::optional<MeshRun> mesh;
   if (!o.mesh.empty())
   {
-    mesh = meshCloud(r.output, o.cocone, pointRadii(r.result));
+    mesh = meshCloud(r.output, o.cocone, pointRadii(r.result),
+                     o.cocone.open_tunnels ? scanSupport(input, r.result.input_to_output) : surface::ScanSupport{});
     if (!mesh->result.ok())
       throw ToolError(kExitInput, o.input + ": the simplified cloud cannot be meshed: " + mesh->result.error);
   }

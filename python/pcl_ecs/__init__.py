@@ -151,7 +151,8 @@ def write(path: str, points: Any, *, normals: Any = None, colors: Any = None, in
                  _optional(intensity, np.float32), extra)
 
 
-def reconstruct(points: Any, radius: Any = None) -> Tuple[np.ndarray, np.ndarray]:
+def reconstruct(points: Any, radius: Any = None, scan: Any = None,
+                scan_to_point: Any = None) -> Tuple[np.ndarray, np.ndarray]:
     """Cocone surface through the points: (vertices (N, 3) float64, triangles (T, 3) int64 indices
     into them), manifold and oriented. Raises ValueError when no surface can be made.
 
@@ -159,6 +160,16 @@ def reconstruct(points: Any, radius: Any = None) -> Tuple[np.ndarray, np.ndarray
     of `simplify`; 0 for a point kept as it is, which is judged by its nearest neighbour's ball;
     NaN where unknown). Triangles joining two points whose balls do not overlap (farther apart
     than 2 × the sum of their radii) are then refused: they cross gaps, such as between a gear's
-    teeth, that the sparse points alone do not show."""
-    return _core._reconstruct(np.ascontiguousarray(np.asarray(points), dtype=np.float64),
-                              None if radius is None else np.ascontiguousarray(np.asarray(radius), dtype=np.float64))
+    teeth, that the sparse points alone do not show.
+
+    `scan`, optional, (M, 3): the scan the points were simplified from. Tunnels the cocones capped
+    on both faces of a part (a bore about one point spacing across) are then opened against it:
+    two facing patches of the mesh that span empty space are replaced by a band on the bore's
+    wall. `scan_to_point`, optional with it, (M,) int64: the point standing for each scan point
+    (`Result.input_to_output` of `simplify`; -1: none); without it, each scan point's nearest."""
+    def f64(a: Any) -> np.ndarray:
+        return np.ascontiguousarray(np.asarray(a), dtype=np.float64)
+    return _core._reconstruct(f64(points), None if radius is None else f64(radius),
+                              None if scan is None else f64(scan),
+                              None if scan_to_point is None
+                              else np.ascontiguousarray(np.asarray(scan_to_point), dtype=np.int64))

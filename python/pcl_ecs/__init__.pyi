@@ -90,5 +90,8 @@ def write(
     fields: Optional[Mapping[str, npt.ArrayLike]] = None,
 ) -> None: ...
 def reconstruct(
-    points: npt.ArrayLike, radius: Optional[npt.ArrayLike] = None
+    points: npt.ArrayLike,
+    radius: Optional[npt.ArrayLike] = None,
+    scan: Optional[npt.ArrayLike] = None,
+    scan_to_point: Optional[npt.ArrayLike] = None,
 ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]: ...

@@ -326,7 +326,9 @@ void writeFile(const std::string& path, nb::ndarray<nb::c_contig, nb::device::cp
 }
 
 std::pair<nb::ndarray<nb::numpy, double>, nb::ndarray<nb::numpy, std::int64_t>> reconstruct(Array<const double> points,
-                                                                                             nb::object radius)
+                                                                                             nb::object radius,
+                                                                                             nb::object scan,
+                                                                                             nb::object scan_to_point)
 {
   if (points.ndim() != 2 || points.shape(1) != 3)
     throw nb::value_error("points must be an (N, 3) float64 array");
@@ -342,10 +344,32 @@ std::pair<nb::ndarray<nb::numpy, double>, nb::ndarray<nb::numpy, std::int64_t>> 
       throw nb::value_error("radius must be an (N,) float64 array, N the number of points");
     sample_radius.assign(r.data(), r.data() + n);
   }
+  pcl_ecs::surface::ScanSupport support;
+  pcl_ecs::surface::CoconeParameters params;
+  if (!scan.is_none())
+  {
+    const auto sc = nb::cast<Array<const double>>(scan);
+    if (sc.ndim() != 2 || sc.shape(1) != 3)
+      throw nb::value_error("scan must be an (M, 3) float64 array");
+    const std::size_t m = sc.shape(0);
+    support.points.resize(m);
+    for (std::size_t i = 0; i < m; ++i)
+      support.points[i] = Eigen::Vector3d(sc.data()[3 * i], sc.data()[3 * i + 1], sc.data()[3 * i + 2]).cast<float>();
+    if (!scan_to_point.is_none())
+    {
+      const auto o = nb::cast<Array<const std::int64_t>>(scan_to_point);
+      if (o.ndim() != 1 || o.shape(0) != m)
+        throw nb::value_error("scan_to_point must be an (M,) int64 array, M the number of scan points");
+      support.sample_of.assign(o.data(), o.data() + m);
+    }
+    params.open_tunnels = true;
+  }
+  else if (!scan_to_point.is_none())
+    throw nb::value_error("scan_to_point is read with scan only");
   pcl_ecs::surface::CoconeResult r;
   {
     nb::gil_scoped_release release;
-    r = pcl_ecs::surface::coconeReconstruct(pts, pcl_ecs::surface::CoconeParameters(), sample_radius);
+    r = pcl_ecs::surface::coconeReconstruct(pts, params, sample_radius, support);
   }
   if (!r.ok())
     throw nb::value_error(r.error.c_str());
@@ -493,7 +517,7 @@ NB_MODULE(_core, m)
   m.def("_read", &readFile, "path"_a);
   m.def("_write", &writeFile, "path"_a, "points"_a, "normals"_a.none(), "colors"_a.none(), "intensity"_a.none(),
         "fields"_a.none());
-  m.def("_reconstruct", &reconstruct, "points"_a, "radius"_a.none());
+  m.def("_reconstruct", &reconstruct, "points"_a, "radius"_a.none(), "scan"_a.none(), "scan_to_point"_a.none());
   using pcl_ecs::stream::TiledRun;
   nb::class_<TiledRun>(m, "_TiledRun")
       .def("__init__",

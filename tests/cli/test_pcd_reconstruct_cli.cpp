@@ -315,6 +315,45 @@ TEST_F(MeshCli, RadiiWrittenBySimplifyGiveReconstructTheSameMesh)
   EXPECT_NE(r.err.find("--radii"), std::string::npos) << r.err;
 }
 
+TEST_F(MeshCli, TunnelsOpenAgainstTheScan)
+{
+  // The turbine at 10%: pcd_simplify --mesh --tunnels opens the ten bolt holes its mesh caps
+  // without (χ −20, not 0), giving Cocone its input as the scan; pcd_reconstruct does the same with
+  // --support (each scan point given to its nearest sample). --tunnels without --support, and
+  // --support without --tunnels, are usage errors that write nothing.
+  const std::string in = kShared + "/turbine_scan.pcd";
+  if (!fs::exists(in))
+    GTEST_SKIP() << "shared data missing";
+  RunResult r = run(kSimplify, in + " " + path("t.pcd") + " --target-ratio 0.1 --radii --quiet --mesh " + path("a.ply") +
+                                   " --stats " + path("a.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  auto mesh = nlohmann::json::parse(slurp(path("a.json")))["mesh"];
+  EXPECT_EQ(mesh["topology"]["euler_characteristic"].get<long>(), 0);
+  EXPECT_EQ(mesh["counts"]["opened_tunnels"].get<std::size_t>(), 0u);
+  EXPECT_FALSE(mesh["parameters"]["open_tunnels"].get<bool>());
+  r = run(kSimplify, in + " " + path("t.pcd") + " --target-ratio 0.1 --radii --quiet --mesh " + path("b.ply") +
+                         " --tunnels --stats " + path("b.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  mesh = nlohmann::json::parse(slurp(path("b.json")))["mesh"];
+  EXPECT_EQ(mesh["topology"]["euler_characteristic"].get<long>(), -20);
+  EXPECT_EQ(mesh["counts"]["opened_tunnels"].get<std::size_t>(), 10u);
+  EXPECT_TRUE(plyTopology(path("b.ply")).isClosedManifold());
+  r = run(kReconstruct, path("t.pcd") + " " + path("c.ply") + " --tunnels --support " + in + " --stats " + path("c.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto c = nlohmann::json::parse(slurp(path("c.json")));
+  EXPECT_EQ(c["topology"]["euler_characteristic"].get<long>(), -20);
+  EXPECT_TRUE(c["parameters"]["open_tunnels"].get<bool>());
+  r = run(kReconstruct, path("t.pcd") + " " + path("d.ply") + " --tunnels");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--tunnels needs --support"), std::string::npos) << r.err;
+  r = run(kReconstruct, path("t.pcd") + " " + path("d.ply") + " --support " + in);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--support is read by --tunnels only"), std::string::npos) << r.err;
+  r = run(kReconstruct, path("t.pcd") + " " + path("d.ply") + " --tunnels --support " + path("missing.pcd"));
+  EXPECT_EQ(r.code, 3);
+  EXPECT_FALSE(fs::exists(path("d.ply")));
+}
+
 TEST_F(MeshCli, ARadiusFieldThatHoldsNoRadiusIsRefused)
 {
   // ecs_radius is 0 (unknown) or a positive, finite radius; anything else is a damaged file:

@@ -263,6 +263,34 @@ def test_reconstruct_refuses_triangles_between_balls_that_do_not_overlap():
         pcl_ecs.reconstruct(pts, radius=radius[:-1])
 
 
+def test_reconstruct_opens_the_turbines_bolt_holes_against_its_scan():
+    # The turbine simplified to 10%: its ten bolt holes, one point spacing across, come out capped
+    # on both faces of the flange (Euler characteristic 0: the bore alone); with the scan they are
+    # opened (-20, genus 11), with the filter's own scan-to-point map or the nearest point.
+    scan_path = SHARED / "turbine_scan.pcd"
+    if not scan_path.exists():
+        pytest.skip("shared data missing")
+    fields = pcl_ecs.read(scan_path)
+    scan = np.stack([fields["x"], fields["y"], fields["z"]], axis=1).astype(np.float64)
+    res = pcl_ecs.simplify(scan, target_ratio=0.1)
+
+    def euler(v, tri):
+        edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+        return len(np.unique(tri)) - len(np.unique(edges, axis=0)) + len(tri)
+
+    v, tri = pcl_ecs.reconstruct(res.points, radius=res.point_radius)
+    assert euler(v, tri) == 0
+    v, tri = pcl_ecs.reconstruct(res.points, radius=res.point_radius, scan=scan,
+                                 scan_to_point=res.input_to_output)
+    assert euler(v, tri) == -20
+    v, tri = pcl_ecs.reconstruct(res.points, radius=res.point_radius, scan=scan)
+    assert euler(v, tri) == -20
+    with pytest.raises(ValueError, match="M the number of scan points"):
+        pcl_ecs.reconstruct(res.points, scan=scan, scan_to_point=res.input_to_output[:-1])
+    with pytest.raises(ValueError, match="scan_to_point is read with scan only"):
+        pcl_ecs.reconstruct(res.points, scan_to_point=res.input_to_output)
+
+
 # ---- the examples of docs/PYTHON.md --------------------------------------------------------------
 
 def test_example_laz_to_laz_with_laspy_keeps_every_dimension(tmp_path):

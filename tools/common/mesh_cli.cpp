@@ -52,6 +52,8 @@ bool applyCoconeFlag(const std::string& flag, const std::function<std::string()>
     p.fill_hole_edges = static_cast<std::size_t>(parseUnsignedFlag(flag, value()));
   else if (flag == "--watertight")
     p.watertight = true;
+  else if (flag == "--tunnels")
+    p.open_tunnels = true;
   else if (flag == "--min-component")
     p.min_component_triangles = static_cast<std::size_t>(parseUnsignedFlag(flag, value()));
   else
@@ -80,12 +82,27 @@ std::string coconeFlagsHelp()
     << "  --fill-holes N      close boundary loops of at most N edges, then cut out handles only three\n"
     << "                      edges around; 0 = neither (default " << d.fill_hole_edges << ")\n"
     << "  --watertight        seal every remaining boundary loop: a closed surface for closed objects\n"
+    << "  --tunnels           open the tunnels the cocones capped on both faces (a bolt hole a few\n"
+    << "                      samples across), judged against the scan the cloud was simplified from:\n"
+    << "                      pcd_simplify --mesh uses its input, pcd_reconstruct needs --support\n"
     << "  --min-component N   drop pieces of fewer than N triangles (default " << d.min_component_triangles << ")\n";
   return s.str();
 }
 
+surface::ScanSupport scanSupport(const pcl::PCLPointCloud2& scan, std::vector<std::int64_t> sample_of)
+{
+  pcl::PointCloud<pcl::PointXYZ> xyz;
+  pcl_ecs::io::fromCloud(scan, xyz);
+  surface::ScanSupport s;
+  s.points.reserve(xyz.size());
+  for (const auto& p : xyz)
+    s.points.push_back(p.getVector3fMap());
+  s.sample_of = std::move(sample_of);
+  return s;
+}
+
 MeshRun meshCloud(const pcl::PCLPointCloud2& cloud, const surface::CoconeParameters& params,
-                  const std::vector<double>& sample_radius)
+                  const std::vector<double>& sample_radius, const surface::ScanSupport& support)
 {
   MeshRun run;
   pcl::PointCloud<pcl::PointXYZ> xyz;
@@ -94,7 +111,7 @@ MeshRun meshCloud(const pcl::PCLPointCloud2& cloud, const surface::CoconeParamet
   pts.reserve(xyz.size());
   for (const auto& p : xyz)
     pts.emplace_back(p.x, p.y, p.z);
-  run.result = surface::coconeReconstruct(pts, params, sample_radius);
+  run.result = surface::coconeReconstruct(pts, params, sample_radius, support);
   if (!run.result.ok())
     return run;
   run.topology = surface::analyzeTopology(pts.size(), run.result.triangles);
@@ -139,7 +156,8 @@ nlohmann::json meshStatsJson(const MeshRun& run, const surface::CoconeParameters
                      {"max_edge_ratio", p.max_edge_ratio},
                      {"fill_hole_edges", p.fill_hole_edges},
                      {"min_component_triangles", p.min_component_triangles},
-                     {"watertight", p.watertight}};
+                     {"watertight", p.watertight},
+                     {"open_tunnels", p.open_tunnels}};
   j["counts"] = {{"input_points", s.input_points},
                  {"non_finite_points", s.non_finite_points},
                  {"duplicate_points", s.duplicate_points},
@@ -162,6 +180,8 @@ nlohmann::json meshStatsJson(const MeshRun& run, const surface::CoconeParameters
                  {"flipped_edges", s.flipped_edges},
                  {"cleanup_removed_triangles", s.cleanup_removed_triangles},
                  {"sealed_loops", s.sealed_loops},
+                 {"opened_tunnels", s.opened_tunnels},
+                 {"tunnel_triangles", s.tunnel_triangles},
                  {"triangles", s.triangles},
                  {"used_vertices", s.used_vertices}};
   j["topology"] = {{"edges", t.edges},

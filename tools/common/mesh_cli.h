@@ -34,10 +34,15 @@ struct MeshRun
   surface::VertexColors colors;  ///< filled when the cloud has rgb / rgba
 };
 
+/** \brief The scan a cloud was simplified from as surface::coconeReconstruct takes it: its x, y, z
+ * and, per scan point, the sample standing for it (Result::input_to_output; empty: the nearest). */
+surface::ScanSupport scanSupport(const pcl::PCLPointCloud2& scan, std::vector<std::int64_t> sample_of = {});
+
 /** \brief Mesh the points of `cloud` (x, y, z; rgb carried over when present); `sample_radius`,
- * per point or empty, as surface::coconeReconstruct takes it (a simplified cloud's pointRadii). */
+ * per point or empty, and `support`, as surface::coconeReconstruct takes them (a simplified cloud's
+ * pointRadii; the scan it came from, used with CoconeParameters::open_tunnels). */
 MeshRun meshCloud(const pcl::PCLPointCloud2& cloud, const surface::CoconeParameters& params,
-                  const std::vector<double>& sample_radius = {});
+                  const std::vector<double>& sample_radius = {}, const surface::ScanSupport& support = {});
 
 /** \brief Write `run` to `path` in `format`. Throws io::FileError. */
 void writeMeshFile(const std::string& path, surface::MeshFormat format, const MeshRun& run);

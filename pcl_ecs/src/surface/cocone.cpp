@@ -2,6 +2,7 @@
 // cocone_detail.h), the cocone test of one point and the mesh topology.
 #include "cocone_detail.h"
 
+#include <algorithm>
 #include <sstream>
 
 namespace pcl_ecs
@@ -254,7 +255,7 @@ MeshTopology analyzeTopology(std::size_t num_points, const std::vector<Triangle>
 
 
 CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const CoconeParameters& params,
-                               const std::vector<double>& sample_radius)
+                               const std::vector<double>& sample_radius, const ScanSupport& support)
 {
   CoconeResult result;
   CoconeStats& st = result.stats;
@@ -275,6 +276,27 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
     result.error = "sample radii for " + std::to_string(sample_radius.size()) + " points, but there are " +
                    std::to_string(points.size()) + " points";
     return result;
+  }
+  if (support.points.size() >= kNone)
+  {
+    result.error = "too many scan points for 32-bit indices";
+    return result;
+  }
+  if (!support.sample_of.empty())
+  {
+    if (support.sample_of.size() != support.points.size())
+    {
+      result.error = "the scan's sample_of has " + std::to_string(support.sample_of.size()) + " entries for " +
+                     std::to_string(support.points.size()) + " scan points";
+      return result;
+    }
+    for (std::size_t i = 0; i < support.sample_of.size(); ++i)
+      if (support.sample_of[i] < -1 || support.sample_of[i] >= static_cast<std::int64_t>(points.size()))
+      {
+        result.error = "the scan's sample_of[" + std::to_string(i) + "] = " + std::to_string(support.sample_of[i]) +
+                       " names no sample (there are " + std::to_string(points.size()) + ")";
+        return result;
+      }
   }
   const std::size_t n = points.size();
 
@@ -313,9 +335,9 @@ CoconeResult coconeReconstruct(const std::vector<Eigen::Vector3d>& points, const
   st.time_extract = since(t0);
 
   t0 = Clock::now();
-  result.triangles = cleanUp(points, spacing, params, cand, alive, edges, walked, st);
-  st.cleanup_removed_triangles =
-      st.extracted_triangles + st.filled_triangles + st.stitched_triangles - result.triangles.size();
+  result.triangles = cleanUp(points, spacing, params, cand, alive, edges, walked, support, st);
+  st.cleanup_removed_triangles = st.extracted_triangles + st.filled_triangles + st.stitched_triangles +
+                                 st.tunnel_triangles - result.triangles.size();
   st.time_cleanup = since(t0);
   st.triangles = result.triangles.size();
   {

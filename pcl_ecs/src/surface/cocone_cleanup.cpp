@@ -1,6 +1,8 @@
 // cocone_cleanup.cpp — step 7 of the Cocone reconstruction (cocone.h): an oriented 2-manifold,
-// notches and holes closed, loops sealed when asked, small components dropped.
+// notches and holes closed, tunnels opened against the scan when asked, loops sealed when asked,
+// small components dropped.
 #include "cocone_detail.h"
+#include "../detail/point_grid.h"
 
 #include <cstring>
 #include <deque>
@@ -462,6 +464,149 @@ std::vector<std::vector<std::uint32_t>> followLoops(const std::unordered_map<std
   return loops;
 }
 
+/// The scan's points grouped by the sample standing for each (openTunnels): whether a triangle lies
+/// within a distance of the scan, judged at seven of its points (the centroid, the three of
+/// barycentric weights (2/3, 1/6, 1/6) and the edges' midpoints) against the scan points of its
+/// three samples, and where those are too far, of the samples next to them (sharing a candidate
+/// triangle: around a capped bore, the samples on its wall that no mesh triangle holds).
+class ScanPoints
+{
+public:
+  /// `spacing`: the samples' local spacing (the nearest sample is looked for within twice its
+  /// median when support.sample_of is empty); `cand`: the candidate triangles.
+  ScanPoints(const std::vector<Eigen::Vector3d>& samples, const std::vector<double>& spacing, const ScanSupport& support,
+             const std::vector<Triangle>& cand)
+    : scan_(&support.points)
+  {
+    const std::size_t n = samples.size(), m = support.points.size();
+    std::vector<std::int64_t> nearest;
+    if (support.sample_of.empty())
+      nearest = nearestSamples(samples, spacing, support.points);
+    const std::vector<std::int64_t>& owner = support.sample_of.empty() ? nearest : support.sample_of;
+    auto usable = [&](std::size_t i) { return owner[i] >= 0 && support.points[i].allFinite(); };
+    offset_.assign(n + 1, 0);
+    for (std::size_t i = 0; i < m; ++i)
+      if (usable(i))
+        ++offset_[static_cast<std::size_t>(owner[i]) + 1];
+    for (std::size_t i = 0; i < n; ++i)
+      offset_[i + 1] += offset_[i];
+    index_.resize(offset_[n]);
+    {
+      std::vector<std::uint32_t> pos(offset_.begin(), offset_.end() - 1);
+      for (std::size_t i = 0; i < m; ++i)
+        if (usable(i))
+          index_[pos[static_cast<std::size_t>(owner[i])]++] = static_cast<std::uint32_t>(i);
+    }
+    // Each sample's distance to its nearest scan point (infinite: it has none).
+    gap_.assign(n, std::numeric_limits<double>::infinity());
+    for (std::size_t v = 0; v < n; ++v)
+    {
+      const Eigen::Vector3f p = samples[v].cast<float>();
+      float best = std::numeric_limits<float>::infinity();
+      for (std::uint32_t i = offset_[v]; i < offset_[v + 1]; ++i)
+        best = std::min(best, ((*scan_)[index_[i]] - p).squaredNorm());
+      if (offset_[v + 1] > offset_[v])
+        gap_[v] = std::sqrt(static_cast<double>(best)) * (1.0 + 1e-6) + 1e-12;
+    }
+    // The candidate graph: each sample's neighbours (a neighbour listed once per triangle).
+    next_offset_.assign(n + 1, 0);
+    for (const Triangle& t : cand)
+      for (const std::uint32_t v : t)
+        next_offset_[v + 1] += 2;
+    for (std::size_t i = 0; i < n; ++i)
+      next_offset_[i + 1] += next_offset_[i];
+    next_.resize(next_offset_[n]);
+    std::vector<std::uint32_t> at(next_offset_.begin(), next_offset_.end() - 1);
+    for (const Triangle& t : cand)
+      for (int k = 0; k < 3; ++k)
+      {
+        next_[at[t[k]]++] = t[(k + 1) % 3];
+        next_[at[t[k]]++] = t[(k + 2) % 3];
+      }
+  }
+  /// The scan points given to some sample.
+  std::size_t size() const { return index_.size(); }
+  /// Whether each of the seven points of triangle `t` (sample ids, positions `pos`) has a scan
+  /// point within r.
+  bool covers(const Triangle& t, const std::array<Eigen::Vector3d, 3>& pos, double r) const
+  {
+    static constexpr double kW[7][3] = {{1.0 / 3, 1.0 / 3, 1.0 / 3}, {2.0 / 3, 1.0 / 6, 1.0 / 6}, {1.0 / 6, 2.0 / 3, 1.0 / 6},
+                                        {1.0 / 6, 1.0 / 6, 2.0 / 3}, {0.5, 0.5, 0.0},             {0.0, 0.5, 0.5},
+                                        {0.5, 0.0, 0.5}};
+    const auto r2 = static_cast<float>(r * r);
+    for (const auto& w : kW)
+    {
+      const Eigen::Vector3d qd = w[0] * pos[0] + w[1] * pos[1] + w[2] * pos[2];
+      // Within r of a sample whose nearest scan point is near enough: covered (the triangle
+      // inequality), without looking at the points.
+      double dist[3];
+      for (int k = 0; k < 3; ++k)
+        dist[k] = (qd - pos[k]).norm();
+      if (dist[0] + gap_[t[0]] <= r || dist[1] + gap_[t[1]] <= r || dist[2] + gap_[t[2]] <= r)
+        continue;
+      const Eigen::Vector3f q = qd.cast<float>();
+      // The nearest sample's points first.
+      int order[3] = {0, 1, 2};
+      std::sort(order, order + 3, [&](int a, int b) { return dist[a] < dist[b]; });
+      if (nearOf(t[order[0]], q, r2) || nearOf(t[order[1]], q, r2) || nearOf(t[order[2]], q, r2))
+        continue;
+      bool found = false;
+      for (int k = 0; k < 3 && !found; ++k)
+        for (std::uint32_t i = next_offset_[t[k]]; i < next_offset_[t[k] + 1] && !found; ++i)
+          found = nearOf(next_[i], q, r2);
+      if (!found)
+        return false;
+    }
+    return true;
+  }
+
+private:
+  /// A scan point of sample s within sqrt(r2) of q.
+  bool nearOf(std::size_t s, const Eigen::Vector3f& q, float r2) const
+  {
+    for (std::uint32_t i = offset_[s]; i < offset_[s + 1]; ++i)
+      if (((*scan_)[index_[i]] - q).squaredNorm() <= r2)
+        return true;
+    return false;
+  }
+
+  /// Each scan point's nearest sample within twice the samples' median spacing (−1: none).
+  static std::vector<std::int64_t> nearestSamples(const std::vector<Eigen::Vector3d>& samples,
+                                                  const std::vector<double>& spacing,
+                                                  const std::vector<Eigen::Vector3f>& scan)
+  {
+    std::vector<std::int64_t> owner(scan.size(), -1);
+    std::vector<double> positive;
+    for (const double s : spacing)
+      if (s > 0.0)
+        positive.push_back(s);
+    if (positive.empty())
+      return owner;
+    const auto mid = positive.begin() + static_cast<std::ptrdiff_t>(positive.size() / 2);
+    std::nth_element(positive.begin(), mid, positive.end());
+    const double side = 2.0 * *mid;
+    PointGrid grid(side);
+    for (std::size_t i = 0; i < samples.size(); ++i)
+      grid.insert(samples[i], static_cast<std::int64_t>(i));
+    const auto m = static_cast<std::ptrdiff_t>(scan.size());
+#pragma omp parallel for schedule(dynamic, 4096)
+    for (std::ptrdiff_t i = 0; i < m; ++i)
+    {
+      const Eigen::Vector3f& p = scan[static_cast<std::size_t>(i)];
+      if (p.allFinite())
+        owner[static_cast<std::size_t>(i)] = grid.nearest(p.cast<double>(), side);
+    }
+    return owner;
+  }
+
+  const std::vector<Eigen::Vector3f>* scan_;  // the scan's points
+  std::vector<std::uint32_t> offset_;         // per sample, its scan points' start in index_
+  std::vector<std::uint32_t> index_;          // the scan points' indices, grouped by sample
+  std::vector<double> gap_;                   // per sample, the distance to its nearest scan point
+  std::vector<std::uint32_t> next_offset_;    // per sample, its neighbours' start in next_
+  std::vector<std::uint32_t> next_;           // the candidate graph
+};
+
 /// Step 7, third part: triangles added to the kept mesh, with the use of every edge tracked.
 class MeshFill
 {
@@ -710,6 +855,202 @@ public:
   }
 
 private:
+  /// A patch of openTunnels: its triangles, its border in their direction (the direction a
+  /// triangle closing the hole it leaves takes), the border's centre, twice its vector area and
+  /// its radius (the farthest border vertex from the centre).
+  struct TunnelPatch
+  {
+    std::vector<std::uint32_t> triangles, border;
+    Eigen::Vector3d centre, area;
+    double radius = 0.0;
+  };
+  static constexpr std::size_t kTunnelPatchTriangles = 64;  ///< a larger patch is not a cap
+  static constexpr std::size_t kTunnelBorder = 40;          ///< nor one with a longer border
+  static constexpr double kTunnelRadiusRatio = 3.0;  ///< a pair's larger radius at most this × the other's
+  static constexpr double kTunnelAxisCos = 0.7;      ///< the axis within acos(this) (45.6°) of both normals
+
+  std::array<Eigen::Vector3d, 3> triangleAt(std::uint32_t t) const
+  {
+    return {points_[out_[t][0]], points_[out_[t][1]], points_[out_[t][2]]};
+  }
+
+  /// The patches of openTunnels: from each seed (a triangle spanning empty space, in index order)
+  /// the triangles reached across edges through triangles with a point farther than
+  /// kTunnelPatchRadius × h from the scan; kept when at most kTunnelPatchTriangles and bounded by
+  /// one simple loop of at most kTunnelBorder edges.
+  std::vector<TunnelPatch> tunnelPatches(const std::vector<char>& empty, const ScanPoints& scan, double h) const
+  {
+    std::vector<TunnelPatch> patches;
+    std::vector<char> taken(out_.size(), 0);
+    for (std::uint32_t s = 0; s < out_.size(); ++s)
+    {
+      if (!empty[s] || taken[s])
+        continue;
+      TunnelPatch p;
+      std::vector<std::uint32_t> stack{s};
+      taken[s] = 1;
+      while (!stack.empty() && p.triangles.size() <= kTunnelPatchTriangles)
+      {
+        const std::uint32_t t = stack.back();
+        stack.pop_back();
+        p.triangles.push_back(t);
+        for (int k = 0; k < 3; ++k)
+          for (const std::uint32_t u : trianglesAt(out_[t][k], out_[t][(k + 1) % 3]))
+            if (!taken[u] && (empty[u] || !scan.covers(out_[u], triangleAt(u), kTunnelPatchRadius * h)))
+            {
+              taken[u] = 1;
+              stack.push_back(u);
+            }
+      }
+      if (p.triangles.size() > kTunnelPatchTriangles || !patchBorder(p))
+        continue;
+      p.centre = Eigen::Vector3d::Zero();
+      for (const std::uint32_t v : p.border)
+        p.centre += points_[v];
+      p.centre /= static_cast<double>(p.border.size());
+      for (const std::uint32_t v : p.border)
+        p.radius = std::max(p.radius, (points_[v] - p.centre).norm());
+      p.area = twiceVectorArea(points_, p.border);
+      patches.push_back(std::move(p));
+    }
+    return patches;
+  }
+
+  /// The border of a patch: its edges no other of its triangles holds, in their direction, as one
+  /// simple loop of at most kTunnelBorder edges; false when they make none.
+  bool patchBorder(TunnelPatch& p) const
+  {
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;  // a → b
+    for (const std::uint32_t t : p.triangles)
+      for (int k = 0; k < 3; ++k)
+      {
+        const std::uint32_t a = out_[t][k], b = out_[t][(k + 1) % 3];
+        bool inner = false;
+        for (const std::uint32_t u : trianglesAt(a, b))
+          inner = inner || (u != t && std::find(p.triangles.begin(), p.triangles.end(), u) != p.triangles.end());
+        if (!inner)
+          edges.emplace_back(a, b);
+      }
+    if (edges.size() < 3 || edges.size() > kTunnelBorder)
+      return false;
+    std::sort(edges.begin(), edges.end());
+    for (std::size_t k = 1; k < edges.size(); ++k)
+      if (edges[k].first == edges[k - 1].first)
+        return false;  // two border edges leave one vertex: not a simple loop
+    auto next = [&](std::uint32_t v) -> std::optional<std::uint32_t> {
+      const auto it = std::lower_bound(edges.begin(), edges.end(), std::make_pair(v, std::uint32_t{0}));
+      if (it == edges.end() || it->first != v)
+        return std::nullopt;
+      return it->second;
+    };
+    p.border.clear();
+    std::uint32_t v = edges.front().first;
+    do
+    {
+      p.border.push_back(v);
+      const std::optional<std::uint32_t> w = next(v);
+      if (!w || p.border.size() > edges.size())
+        return false;
+      v = *w;
+    } while (v != p.border.front());
+    return p.border.size() == edges.size();
+  }
+
+  static bool sharesVertex(const std::vector<std::uint32_t>& a, const std::vector<std::uint32_t>& b)
+  {
+    for (const std::uint32_t x : a)
+      if (std::find(b.begin(), b.end(), x) != b.end())
+        return true;
+    return false;
+  }
+
+  /// The band between borders a and b (each in its patch's direction, which the band's triangles
+  /// take at a's edges and reverse at b's: a forward, b backward) of least total squared chord
+  /// length among those whose triangles lie within `radius` of the scan, whose chords are new to
+  /// the mesh and whose every edge ends between two triangles; dynamic programming over the chord
+  /// (a[i], b[j]) for each start on b. False, and `band` untouched, when there is none.
+  bool bandOnScan(const std::vector<std::uint32_t>& a, const std::vector<std::uint32_t>& b, const ScanPoints& scan,
+                  double radius, std::vector<Triangle>& band) const
+  {
+    const std::size_t n = a.size(), m = b.size();
+    const double inf = std::numeric_limits<double>::infinity();
+    double best = inf;
+    std::vector<double> cost((n + 1) * (m + 1));
+    std::vector<char> from((n + 1) * (m + 1));
+    auto at = [&](std::size_t i, std::size_t j) { return i * (m + 1) + j; };
+    for (std::size_t j0 = 0; j0 < m; ++j0)
+    {
+      auto A = [&](std::size_t i) { return a[i % n]; };
+      auto B = [&](std::size_t j) { return b[(j0 + m - j % m) % m]; };
+      auto chord = [&](std::size_t i, std::size_t j) {
+        return use_.contains(edgeKey(A(i), B(j))) ? inf : (points_[A(i)] - points_[B(j)]).squaredNorm();
+      };
+      auto onScan = [&](std::uint32_t x, std::uint32_t y, std::uint32_t z) {
+        return scan.covers({x, y, z}, {points_[x], points_[y], points_[z]}, radius);
+      };
+      std::fill(cost.begin(), cost.end(), inf);
+      cost[at(0, 0)] = chord(0, 0);
+      for (std::size_t i = 0; i <= n; ++i)
+        for (std::size_t j = 0; j <= m; ++j)
+        {
+          if (i + j == 0)
+            continue;
+          const double c = i == n && j == m ? 0.0 : chord(i, j);  // (n, m) is the first chord again
+          if (c == inf)
+            continue;
+          if (i > 0 && cost[at(i - 1, j)] < inf && onScan(A(i - 1), A(i), B(j)))
+          {
+            cost[at(i, j)] = cost[at(i - 1, j)] + c;
+            from[at(i, j)] = 1;
+          }
+          if (j > 0 && cost[at(i, j - 1)] + c < cost[at(i, j)] && onScan(B(j), B(j - 1), A(i)))
+          {
+            cost[at(i, j)] = cost[at(i, j - 1)] + c;
+            from[at(i, j)] = 2;
+          }
+        }
+      if (!(cost[at(n, m)] < best))
+        continue;
+      std::vector<Triangle> zipped;
+      for (std::size_t i = n, j = m; i + j > 0;)
+      {
+        if (from[at(i, j)] == 1)
+        {
+          zipped.push_back({A(i - 1), A(i), B(j)});
+          --i;
+        }
+        else
+        {
+          zipped.push_back({B(j), B(j - 1), A(i)});
+          --j;
+        }
+      }
+      // Every edge between two triangles: a chord met twice (one border fanned from a single
+      // vertex of the other) would end with more.
+      std::vector<std::uint64_t> keys;
+      for (const Triangle& t : zipped)
+        for (int k = 0; k < 3; ++k)
+          keys.push_back(edgeKey(t[k], t[(k + 1) % 3]));
+      std::sort(keys.begin(), keys.end());
+      bool manifold = true;
+      for (std::size_t k = 0; k < keys.size() && manifold;)
+      {
+        std::size_t e = k;
+        while (e < keys.size() && keys[e] == keys[k])
+          ++e;
+        const EdgeUse* u = use_.find(keys[k]);
+        manifold = static_cast<int>(e - k) + (u ? u->count : 0) == 2;
+        k = e;
+      }
+      if (manifold)
+      {
+        best = cost[at(n, m)];
+        band = std::move(zipped);
+      }
+    }
+    return best < inf;
+  }
+
   /// The band between loops a and b (both in the closing direction, turning opposite ways): false,
   /// and nothing made, when an edge it needs exists already or is longer than the gap guard allows.
   bool zipBand(const std::vector<std::uint32_t>& a, const std::vector<std::uint32_t>& b,
@@ -779,6 +1120,89 @@ private:
   }
 
 public:
+  /// Tunnels the walk capped (CoconeParameters::open_tunnels, kTunnelEmptyRadius): pairs of facing
+  /// patches that span empty space replaced by a band between their borders that lies on the scan.
+  /// Returns the pairs replaced.
+  std::size_t openTunnels(const ScanSupport& support, const std::vector<Triangle>& cand)
+  {
+    const auto& points = points_;
+    double area = 0.0;
+    for (std::uint32_t t = 0; t < out_.size(); ++t)
+      if (keep_[t])
+        area += 0.5 * (points[out_[t][1]] - points[out_[t][0]]).cross(points[out_[t][2]] - points[out_[t][0]]).norm();
+    if (support.empty() || !(area > 0.0))
+      return 0;
+    const ScanPoints scan(points, spacing_, support, cand);
+    if (scan.size() == 0)
+      return 0;
+    const double h = std::sqrt(area / static_cast<double>(scan.size()));  // the scan's spacing
+    // Seeds: triangles spanning empty space (in parallel; a flag per triangle).
+    std::vector<char> empty(out_.size(), 0);
+    const auto n_out = static_cast<std::ptrdiff_t>(out_.size());
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t t = 0; t < n_out; ++t)
+      if (keep_[static_cast<std::size_t>(t)])
+        empty[static_cast<std::size_t>(t)] =
+            !scan.covers(out_[static_cast<std::size_t>(t)], triangleAt(static_cast<std::uint32_t>(t)), kTunnelEmptyRadius * h);
+    if (std::count(empty.begin(), empty.end(), 1) < 2)
+      return 0;
+    at_.emplace(out_, keep_, points.size());
+    std::vector<TunnelPatch> patches = tunnelPatches(empty, scan, h);
+    // Pairs, nearest first: patches of like size (radii within kTunnelRadiusRatio), near each other,
+    // the line between their centres within 45° of both normals, running inwards from each (a
+    // bore's two caps, whose tube runs along their axis).
+    std::vector<std::tuple<double, std::size_t, std::size_t>> pairs;
+    for (std::size_t i = 0; i < patches.size(); ++i)
+      for (std::size_t j = i + 1; j < patches.size(); ++j)
+      {
+        const TunnelPatch &a = patches[i], &b = patches[j];
+        const Eigen::Vector3d axis = b.centre - a.centre;
+        const double d = axis.norm();
+        if (d > 2.0 * (a.radius + b.radius) ||
+            std::max(a.radius, b.radius) > kTunnelRadiusRatio * std::min(a.radius, b.radius))
+          continue;
+        if (axis.dot(a.area) <= -kTunnelAxisCos * d * a.area.norm() && axis.dot(b.area) >= kTunnelAxisCos * d * b.area.norm())
+          pairs.emplace_back(d, i, j);
+      }
+    std::sort(pairs.begin(), pairs.end());
+    std::vector<char> used(patches.size(), 0);
+    std::size_t opened = 0;
+    for (const auto& [d, i, j] : pairs)
+    {
+      if (used[i] || used[j] || sharesVertex(patches[i].border, patches[j].border))
+        continue;
+      for (const std::size_t p : {i, j})
+        for (const std::uint32_t t : patches[p].triangles)
+        {
+          keep_[t] = 0;
+          removeEdges(out_[t]);
+        }
+      std::vector<Triangle> band;
+      if (!bandOnScan(patches[i].border, patches[j].border, scan, kTunnelBandRadius * h, band))
+      {
+        for (const std::size_t p : {i, j})
+          for (const std::uint32_t t : patches[p].triangles)
+          {
+            keep_[t] = 1;
+            addEdges(out_[t]);
+          }
+        continue;
+      }
+      for (const Triangle& tri : band)
+      {
+        out_.push_back(tri);
+        keep_.push_back(1);
+        addEdges(tri);
+        at_->add(static_cast<std::uint32_t>(out_.size() - 1), tri);
+      }
+      st_.tunnel_triangles += band.size();
+      used[i] = used[j] = 1;
+      ++opened;
+    }
+    at_.reset();
+    return opened;
+  }
+
   /// Small handles the walk made are cut out (CoconeStats::removed_handles): a cycle of three mesh
   /// edges that is no triangle of the mesh and does not separate it (the triangles on its two sides
   /// are joined around it, found by a search from both sides within kHandleSearch triangles) runs
@@ -1530,7 +1954,7 @@ std::size_t flipToBendLess(const std::vector<Eigen::Vector3d>& points, const std
 std::vector<Triangle> cleanUp(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& spacing,
                               const CoconeParameters& params, const std::vector<Triangle>& cand,
                               const std::vector<char>& alive, const EdgeIndex& edges, Extraction& walked,
-                              CoconeStats& st)
+                              const ScanSupport& support, CoconeStats& st)
 {
   std::vector<Triangle>& out = walked.out;
   std::vector<char> keep = keepManifold(out, points.size());
@@ -1544,6 +1968,8 @@ std::vector<Triangle> cleanUp(const std::vector<Eigen::Vector3d>& points, const 
     fill.closeLoops(std::move(loops), true);
     st.removed_handles = fill.removeSmallHandles();
   }
+  if (params.open_tunnels && !support.empty())
+    st.opened_tunnels = fill.openTunnels(support, cand);
   if (params.watertight)
     st.sealed_loops = fill.closeLoops(fill.holeLoops(std::numeric_limits<std::size_t>::max() - 1), false);
   st.flipped_edges = flipToBendLess(points, spacing, params.max_edge_ratio, out, keep);

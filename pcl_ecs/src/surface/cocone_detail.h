@@ -398,12 +398,13 @@ std::vector<Triangle> keepLargeComponents(const std::vector<Eigen::Vector3d>& po
                                           const CoconeParameters& params, CoconeStats& st);
 
 /// Step 7: the walked triangles made an oriented 2-manifold (at most two triangles an edge, one
-/// fan a vertex), notches and small holes closed, loops sealed when asked, small components
+/// fan a vertex), notches and small holes closed, tunnels opened where `support` (the scan, its
+/// sample_of empty or checked; may be empty) shows them, loops sealed when asked, small components
 /// dropped (cocone_cleanup.cpp).
 std::vector<Triangle> cleanUp(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& spacing,
                               const CoconeParameters& params, const std::vector<Triangle>& cand,
                               const std::vector<char>& alive, const EdgeIndex& edges, Extraction& walked,
-                              CoconeStats& st);
+                              const ScanSupport& support, CoconeStats& st);
 
 }  // namespace detail
 }  // namespace surface

@@ -61,6 +61,12 @@ public:
    * default): no radius known. A size other than the input cloud's fails reconstruct(). */
   void setSampleRadii(std::vector<double> radius) { radius_ = std::move(radius); }
   const std::vector<double>& getSampleRadii() const { return radius_; }
+  /** \brief The scan the input cloud was simplified from, for CoconeParameters::open_tunnels: its
+   * points and, per scan point, the input cloud's point standing for it (Result::input_to_output;
+   * empty: the nearest; an entry outside the cloud or not among the indices used: none). Empty (the
+   * default): no scan. */
+  void setScanSupport(surface::ScanSupport scan) { scan_ = std::move(scan); }
+  const surface::ScanSupport& getScanSupport() const { return scan_; }
   /** \brief What the last reconstruct() did; the error is empty on success. */
   const surface::CoconeStats& getStats() const { return stats_; }
   const std::string& getLastError() const { return error_; }
@@ -97,7 +103,20 @@ protected:
       for (const auto idx : indices)
         radius.push_back(radius_[static_cast<std::size_t>(idx)]);
     }
-    const surface::CoconeResult r = surface::coconeReconstruct(pts, params_, radius);
+    // The scan's samples by their position among the indices used.
+    surface::ScanSupport scan;
+    if (!scan_.sample_of.empty())
+    {
+      std::vector<std::int64_t> position(cloud.size(), -1);
+      for (std::size_t k = 0; k < indices.size(); ++k)
+        position[static_cast<std::size_t>(indices[k])] = static_cast<std::int64_t>(k);
+      scan.points = scan_.points;
+      scan.sample_of.reserve(scan_.sample_of.size());
+      for (const std::int64_t o : scan_.sample_of)
+        scan.sample_of.push_back(o >= 0 && static_cast<std::size_t>(o) < cloud.size() ? position[static_cast<std::size_t>(o)] : -1);
+    }
+    const surface::CoconeResult r =
+        surface::coconeReconstruct(pts, params_, radius, scan_.sample_of.empty() ? scan_ : scan);
     stats_ = r.stats;
     error_ = r.error;
     if (!r.ok())
@@ -117,6 +136,7 @@ protected:
 private:
   surface::CoconeParameters params_;
   std::vector<double> radius_;
+  surface::ScanSupport scan_;
   surface::CoconeStats stats_;
   std::string error_;
 };
