@@ -1407,21 +1407,23 @@ TEST(CoconeScan, BunnyIsAManifoldCloseToTheReference)
 
 namespace
 {
-/// The pinion scan simplified to `percent`% of its points (a target size): the output points,
-/// their ball radii (pointRadii) and the reference mesh; `error` set when the filter failed. False
-/// when the shared data is missing.
-struct SimplifiedPinion
+/// A shared scan (NAME_scan.pcd) simplified to `percent`% of its points (a target size): the output
+/// points, their ball radii (pointRadii), the reference mesh (NAME_mesh.ply) and the scan with the
+/// sample standing for each of its points (Result::input_to_output); `error` set when the filter
+/// failed. False when the shared data is missing.
+struct SimplifiedScan
 {
   std::vector<Eigen::Vector3d> points;
   std::vector<double> radius;
   pcl_ecs::eval::TriangleMesh reference;
+  pcl_ecs::surface::ScanSupport scan;
   std::string error;
 };
-bool simplifiedPinion(std::size_t percent, SimplifiedPinion& s)
+bool simplifiedScan(const std::string& name, std::size_t percent, SimplifiedScan& s)
 {
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
-  if (pcl::io::loadPCDFile(pcl_ecs_test::sharedData("pinion_scan.pcd"), *cloud) != 0 ||
-      !loadTriangleMesh(pcl_ecs_test::sharedData("pinion_mesh.ply"), s.reference))
+  if (pcl::io::loadPCDFile(pcl_ecs_test::sharedData(name + "_scan.pcd"), *cloud) != 0 ||
+      !loadTriangleMesh(pcl_ecs_test::sharedData(name + "_mesh.ply"), s.reference))
     return false;
   pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> f;
   f.setInputCloud(cloud);
@@ -1434,10 +1436,14 @@ bool simplifiedPinion(std::size_t percent, SimplifiedPinion& s)
   s.radius = pcl_ecs::pointRadii(f.getResult());
   if (s.error.empty() && s.radius.size() != s.points.size())
     s.error = "pointRadii gives " + std::to_string(s.radius.size()) + " radii for " + std::to_string(s.points.size()) + " points";
+  for (const auto& p : *cloud)
+    s.scan.points.push_back(p.getVector3fMap());
+  s.scan.sample_of = f.getResult().input_to_output;
   return true;
 }
+bool simplifiedPinion(std::size_t percent, SimplifiedScan& s) { return simplifiedScan("pinion", percent, s); }
 /// The distances between a mesh of the simplified pinion's points and the reference.
-bool toReference(const SimplifiedPinion& s, const std::vector<Triangle>& triangles, pcl_ecs::eval::MeshDistance& d)
+bool toReference(const SimplifiedScan& s, const std::vector<Triangle>& triangles, pcl_ecs::eval::MeshDistance& d)
 {
   return pcl_ecs::eval::meshDistance(asTriangleMesh(s.points, triangles), s.reference, d);
 }
@@ -1449,7 +1455,7 @@ TEST(CoconeScan, TheSimplifiedGearHasNoTrianglesAcrossItsTeeth)
   // pass the cocone test across the gaps. Given each point's ball radius (pointRadii), Cocone refuses
   // the triangles joining balls that do not overlap: the mesh lies closer to the reference (its
   // mean distance 0.89 ×, its largest 0.58 × the ones without radii) and stays manifold.
-  SimplifiedPinion s;
+  SimplifiedScan s;
   if (!simplifiedPinion(10, s))
     GTEST_SKIP() << "shared data missing";
   ASSERT_TRUE(s.error.empty()) << s.error;
@@ -1476,7 +1482,7 @@ TEST(CoconeScan, TheSimplifiedGearsKeptPointsAreJudgedByTheirNearestBall)
   // radius 0. Left unknown (NaN), the cocones join some of them across the gear; judged by the
   // nearest ball's radius they do not, more triangles are refused as apart, and the mesh lies closer
   // to the reference: mean 0.73 × (bound 0.85), largest 0.93 × (bound 1), in one piece.
-  SimplifiedPinion s;
+  SimplifiedScan s;
   if (!simplifiedPinion(3, s))
     GTEST_SKIP() << "shared data missing";
   ASSERT_TRUE(s.error.empty()) << s.error;
@@ -1515,33 +1521,19 @@ TEST(CoconeScan, TheSimplifiedGearsKeptPointsAreJudgedByTheirNearestBall)
 
 namespace
 {
-/// The turbine scan simplified to `percent`% (a target size): the output points, their ball radii
-/// and the scan with the sample standing for each of its points (Result::input_to_output).
-struct SimplifiedTurbine
+/// `n` points of the unit sphere as a scan (no sample_of: each goes to its nearest sample).
+pcl_ecs::surface::ScanSupport sphereScan(std::size_t n, std::uint64_t seed)
 {
-  std::vector<Eigen::Vector3d> points;
-  std::vector<double> radius;
   pcl_ecs::surface::ScanSupport scan;
-  std::string error;
-};
-bool simplifiedTurbine(std::size_t percent, SimplifiedTurbine& s)
+  for (const auto& p : randomSphere(n, 1.0, seed))
+    scan.points.push_back(p.cast<float>());
+  return scan;
+}
+CoconeParameters withTunnels()
 {
-  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
-  if (pcl::io::loadPCDFile(pcl_ecs_test::sharedData("turbine_scan.pcd"), *cloud) != 0)
-    return false;
-  pcl_ecs::FeatureAwareCoverSimplify<pcl::PointXYZ> f;
-  f.setInputCloud(cloud);
-  f.setTargetSize(cloud->size() * percent / 100);
-  pcl::PointCloud<pcl::PointXYZ> out;
-  f.filter(out);
-  s.error = f.getResult().error;
-  for (const auto& p : out)
-    s.points.emplace_back(p.x, p.y, p.z);
-  s.radius = pcl_ecs::pointRadii(f.getResult());
-  for (const auto& p : *cloud)
-    s.scan.points.push_back(p.getVector3fMap());
-  s.scan.sample_of = f.getResult().input_to_output;
-  return true;
+  CoconeParameters p;
+  p.open_tunnels = true;
+  return p;
 }
 }  // namespace
 
@@ -1552,12 +1544,11 @@ TEST(CoconeTunnels, TheTurbinesBoltHolesOpenWithItsScan)
   // the flange (χ 0: the bore alone). With the scan, the ten pairs of caps span empty space and
   // are replaced by bands on the holes' walls: χ −20, closed, one piece. Without open_tunnels, or
   // without the scan, the mesh is the one without tunnels.
-  SimplifiedTurbine s;
-  if (!simplifiedTurbine(10, s))
+  SimplifiedScan s;
+  if (!simplifiedScan("turbine", 10, s))
     GTEST_SKIP() << "shared data missing";
   ASSERT_TRUE(s.error.empty()) << s.error;
-  CoconeParameters on;
-  on.open_tunnels = true;
+  const CoconeParameters on = withTunnels();
   const auto plain = coconeReconstruct(s.points, CoconeParameters(), s.radius, s.scan);
   const auto no_scan = coconeReconstruct(s.points, on, s.radius);
   const auto with = coconeReconstruct(s.points, on, s.radius, s.scan);
@@ -1624,11 +1615,8 @@ TEST(CoconeTunnels, ASurfaceWithoutTunnelsIsLeftAsItIs)
   // A sphere sampled by 2,000 points, its scan 20,000 more points of it: no patch spans empty
   // space, so the mesh is the same triangle for triangle.
   const auto samples = randomSphere(2000, 1.0, 5);
-  pcl_ecs::surface::ScanSupport scan;
-  for (const auto& p : randomSphere(20000, 1.0, 6))
-    scan.points.push_back(p.cast<float>());
-  CoconeParameters on;
-  on.open_tunnels = true;
+  const pcl_ecs::surface::ScanSupport scan = sphereScan(20000, 6);
+  const CoconeParameters on = withTunnels();
   const auto plain = coconeReconstruct(samples);
   const auto with = coconeReconstruct(samples, on, {}, scan);
   ASSERT_TRUE(plain.ok() && with.ok());
@@ -1639,11 +1627,8 @@ TEST(CoconeTunnels, ASurfaceWithoutTunnelsIsLeftAsItIs)
 TEST(CoconeTunnels, AScanWhoseSamplesDoNotMatchIsRefused)
 {
   const auto samples = randomSphere(500, 1.0, 7);
-  pcl_ecs::surface::ScanSupport scan;
-  for (const auto& p : randomSphere(3000, 1.0, 8))
-    scan.points.push_back(p.cast<float>());
-  CoconeParameters on;
-  on.open_tunnels = true;
+  pcl_ecs::surface::ScanSupport scan = sphereScan(3000, 8);
+  const CoconeParameters on = withTunnels();
   scan.sample_of.assign(10, 0);  // not one per scan point
   auto r = coconeReconstruct(samples, on, {}, scan);
   EXPECT_FALSE(r.ok());
