@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace pcl_ecs
@@ -42,20 +43,23 @@ public:
   const V* find(std::uint64_t key) const { return const_cast<FlatKeyMap*>(this)->find(key); }
   bool contains(std::uint64_t key) const { return find(key) != nullptr; }
 
-  /// The value of `key`, made (V{}) when there is none. A pointer to a value stays valid until the
-  /// next insertion or erasure.
-  V& operator[](std::uint64_t key)
+  /// The value of `key`, made (V{}) when there is none, and whether it was made now. A pointer to a
+  /// value stays valid until the next insertion or erasure.
+  std::pair<V*, bool> insert(std::uint64_t key)
   {
     if (2 * (size_ + 1) > slots_.size())
       rehash(std::max<std::size_t>(16, 2 * slots_.size()));
     Slot& s = slots_[slotOf(key)];
-    if (s.key != key)
+    const bool made = s.key != key;
+    if (made)
     {
       s = {key, V{}};
       ++size_;
     }
-    return s.value;
+    return {&s.value, made};
   }
+  /// The value of `key`, made (V{}) when there is none.
+  V& operator[](std::uint64_t key) { return *insert(key).first; }
 
   void erase(std::uint64_t key)
   {

@@ -143,9 +143,10 @@ private:
   }
   std::vector<Entry>& listFor(std::uint64_t k)
   {
-    if (const std::uint32_t* list = cells_.find(k))
+    const auto [list, made] = cells_.insert(k);
+    if (!made)
       return lists_[*list];
-    cells_[k] = static_cast<std::uint32_t>(lists_.size());
+    *list = static_cast<std::uint32_t>(lists_.size());
     return lists_.emplace_back();
   }
 
