@@ -16,6 +16,7 @@
 #include <pcl_ecs/eval/quality_metrics.h>
 #include <pcl_ecs/feature_aware_cover_simplify.h>
 #include <pcl_ecs/surface/cocone.h>
+#include <pcl_ecs/surface/cocone_reconstruction.h>
 #include <pcl_ecs/surface/mesh_io.h>
 
 #include <CGAL/Advancing_front_surface_reconstruction.h>
@@ -109,13 +110,8 @@ Input simplified(std::string name, std::string reference, bool one_sided, const 
     f.setTargetSize(static_cast<std::size_t>(std::lround(ratio * static_cast<double>(cloud->size()))));
   pcl::PointCloud<pcl::PointXYZ> out;
   f.filter(out);
-  surface::ScanSupport scan;
-  scan.points.reserve(cloud->size());
-  for (const auto& p : *cloud)
-    scan.points.push_back(p.getVector3fMap());
-  scan.sample_of = f.getResult().input_to_output;
   return Input{std::move(name), std::move(reference), one_sided, fromCloud(out), pointRadii(f.getResult()),
-               std::move(scan)};
+               scanSupport(*cloud, f.getResult().input_to_output)};
 }
 
 /// Normals by PCA of 20 neighbours, oriented away from the centroid (the inputs are closed-ish

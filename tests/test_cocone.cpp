@@ -1436,9 +1436,7 @@ bool simplifiedScan(const std::string& name, std::size_t percent, SimplifiedScan
   s.radius = pcl_ecs::pointRadii(f.getResult());
   if (s.error.empty() && s.radius.size() != s.points.size())
     s.error = "pointRadii gives " + std::to_string(s.radius.size()) + " radii for " + std::to_string(s.points.size()) + " points";
-  for (const auto& p : *cloud)
-    s.scan.points.push_back(p.getVector3fMap());
-  s.scan.sample_of = f.getResult().input_to_output;
+  s.scan = pcl_ecs::scanSupport(*cloud, f.getResult().input_to_output);
   return true;
 }
 bool simplifiedPinion(std::size_t percent, SimplifiedScan& s) { return simplifiedScan("pinion", percent, s); }
@@ -1608,6 +1606,21 @@ TEST(CoconeTunnels, TheTurbinesBoltHolesOpenWithItsScan)
   for (std::size_t t = 0; t < with.triangles.size(); ++t)
     for (int k = 0; k < 3; ++k)
       EXPECT_EQ(mesh.polygons[t].vertices[k], 2 * with.triangles[t][k] + 1);
+  // The same class on the simplified points alone (no indices: the scan's map used as it is).
+  auto alone = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  for (const auto& p : s.points)
+    alone->push_back(pcl_ecs_test::toPoint(p));
+  pcl_ecs::Cocone<pcl::PointXYZ> plain_cocone;
+  plain_cocone.setInputCloud(alone);
+  plain_cocone.setSampleRadii(s.radius);
+  plain_cocone.setScanSupport(s.scan);
+  plain_cocone.setParameters(on);
+  plain_cocone.reconstruct(mesh);
+  ASSERT_TRUE(plain_cocone.getLastError().empty()) << plain_cocone.getLastError();
+  ASSERT_EQ(mesh.polygons.size(), with.triangles.size());
+  for (std::size_t t = 0; t < with.triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k)
+      EXPECT_EQ(mesh.polygons[t].vertices[k], with.triangles[t][k]);
 }
 
 TEST(CoconeTunnels, ASurfaceWithoutTunnelsIsLeftAsItIs)

@@ -5,6 +5,7 @@
 
 #include <pcl_ecs/io/cloud_convert.h>
 #include <pcl_ecs/io/cloud_io.h>
+#include <pcl_ecs/surface/cocone_reconstruction.h>
 
 #include <pcl/conversions.h>
 #include <pcl/point_types.h>
@@ -94,12 +95,7 @@ surface::ScanSupport scanSupport(const pcl::PCLPointCloud2& scan, std::vector<st
 {
   pcl::PointCloud<pcl::PointXYZ> xyz;
   pcl_ecs::io::fromCloud(scan, xyz);
-  surface::ScanSupport s;
-  s.points.reserve(xyz.size());
-  for (const auto& p : xyz)
-    s.points.push_back(p.getVector3fMap());
-  s.sample_of = std::move(sample_of);
-  return s;
+  return pcl_ecs::scanSupport(xyz, std::move(sample_of));
 }
 
 MeshRun meshCloud(const pcl::PCLPointCloud2& cloud, const surface::CoconeParameters& params,

@@ -476,7 +476,7 @@ public:
   /// median when support.sample_of is empty); `cand`: the candidate triangles.
   ScanPoints(const std::vector<Eigen::Vector3d>& samples, const std::vector<double>& spacing, const ScanSupport& support,
              const std::vector<Triangle>& cand)
-    : scan_(&support.points)
+    : scan_(&support.points), cand_(&cand), cand_stars_(vertexStars(samples.size(), cand))
   {
     const std::size_t n = samples.size(), m = support.points.size();
     std::vector<std::int64_t> nearest;
@@ -508,21 +508,6 @@ public:
       if (offset_[v + 1] > offset_[v])
         gap_[v] = std::sqrt(static_cast<double>(best)) * (1.0 + 1e-6) + 1e-12;
     }
-    // The candidate graph: each sample's neighbours (a neighbour listed once per triangle).
-    next_offset_.assign(n + 1, 0);
-    for (const Triangle& t : cand)
-      for (const std::uint32_t v : t)
-        next_offset_[v + 1] += 2;
-    for (std::size_t i = 0; i < n; ++i)
-      next_offset_[i + 1] += next_offset_[i];
-    next_.resize(next_offset_[n]);
-    std::vector<std::uint32_t> at(next_offset_.begin(), next_offset_.end() - 1);
-    for (const Triangle& t : cand)
-      for (int k = 0; k < 3; ++k)
-      {
-        next_[at[t[k]]++] = t[(k + 1) % 3];
-        next_[at[t[k]]++] = t[(k + 2) % 3];
-      }
   }
   /// The scan points given to some sample.
   std::size_t size() const { return index_.size(); }
@@ -550,10 +535,16 @@ public:
       std::sort(order, order + 3, [&](int a, int b) { return dist[a] < dist[b]; });
       if (nearOf(t[order[0]], q, r2) || nearOf(t[order[1]], q, r2) || nearOf(t[order[2]], q, r2))
         continue;
+      // The samples sharing a candidate triangle with one of t's (t's own among them again).
       bool found = false;
       for (int k = 0; k < 3 && !found; ++k)
-        for (std::uint32_t i = next_offset_[t[k]]; i < next_offset_[t[k] + 1] && !found; ++i)
-          found = nearOf(next_[i], q, r2);
+        for (std::uint32_t i = cand_stars_.offset[t[k]]; i < cand_stars_.offset[t[k] + 1] && !found; ++i)
+          for (const std::uint32_t w : (*cand_)[cand_stars_.star[i]])
+            if (w != t[k] && nearOf(w, q, r2))
+            {
+              found = true;
+              break;
+            }
       if (!found)
         return false;
     }
@@ -603,8 +594,8 @@ private:
   std::vector<std::uint32_t> offset_;         // per sample, its scan points' start in index_
   std::vector<std::uint32_t> index_;          // the scan points' indices, grouped by sample
   std::vector<double> gap_;                   // per sample, the distance to its nearest scan point
-  std::vector<std::uint32_t> next_offset_;    // per sample, its neighbours' start in next_
-  std::vector<std::uint32_t> next_;           // the candidate graph
+  const std::vector<Triangle>* cand_;         // the candidate triangles
+  VertexStars cand_stars_;                    // per sample, its candidate triangles
 };
 
 /// Step 7, third part: triangles added to the kept mesh, with the use of every edge tracked.

@@ -8,10 +8,12 @@
 #include <pcl_ecs/surface/cocone.h>
 
 #include <pcl/PolygonMesh.h>
+#include <pcl/point_cloud.h>
 #include <pcl/Vertices.h>
 #include <pcl/console/print.h>
 #include <pcl/surface/reconstruction.h>
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <utility>
@@ -19,6 +21,20 @@
 
 namespace pcl_ecs
 {
+
+/** \brief The scan a cloud was simplified from as surface::coconeReconstruct and
+ * Cocone::setScanSupport take it: its points' x, y, z and, per scan point, the sample standing for
+ * it (Result::input_to_output of the simplification; empty: each scan point's nearest sample). */
+template <typename PointT>
+surface::ScanSupport scanSupport(const pcl::PointCloud<PointT>& scan, std::vector<std::int64_t> sample_of = {})
+{
+  surface::ScanSupport s;
+  s.points.reserve(scan.size());
+  for (const PointT& p : scan)
+    s.points.emplace_back(p.x, p.y, p.z);
+  s.sample_of = std::move(sample_of);
+  return s;
+}
 
 template <typename PointInT>
 class Cocone : public pcl::MeshConstruction<PointInT>
@@ -103,9 +119,13 @@ protected:
       for (const auto idx : indices)
         radius.push_back(radius_[static_cast<std::size_t>(idx)]);
     }
-    // The scan's samples by their position among the indices used.
+    // The scan's samples by their position among the indices used (the scan copied only when
+    // those are not the cloud itself, in order).
+    bool whole_cloud = indices.size() == cloud.size();
+    for (std::size_t k = 0; k < indices.size() && whole_cloud; ++k)
+      whole_cloud = static_cast<std::size_t>(indices[k]) == k;
     surface::ScanSupport scan;
-    if (!scan_.sample_of.empty())
+    if (!scan_.sample_of.empty() && !whole_cloud)
     {
       std::vector<std::int64_t> position(cloud.size(), -1);
       for (std::size_t k = 0; k < indices.size(); ++k)
@@ -116,7 +136,7 @@ protected:
         scan.sample_of.push_back(o >= 0 && static_cast<std::size_t>(o) < cloud.size() ? position[static_cast<std::size_t>(o)] : -1);
     }
     const surface::CoconeResult r =
-        surface::coconeReconstruct(pts, params_, radius, scan_.sample_of.empty() ? scan_ : scan);
+        surface::coconeReconstruct(pts, params_, radius, scan_.sample_of.empty() || whole_cloud ? scan_ : scan);
     stats_ = r.stats;
     error_ = r.error;
     if (!r.ok())
