@@ -369,6 +369,12 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
     const bool within = (member - centre).norm() < params.max_representative_offset * sol.radius;
     ball.used_centre = !within;
     ball.representative = within ? member : centre;
+    // The member onto the quadratic of the members near it, where that fits them within the noise
+    // (kMemberFitSupport).
+    if (within)
+      if (const auto local = fitLocalHeight(w.offsets, sol.radius, nc, member - centre, kMemberFitSupport * sol.radius);
+          local && residualWithinNoise(local->residual, sol.radius, in.mean_measure))
+        ball.representative = centre + local->offset;
     ball.attribute_source = within ? chosen : c;
     taken[static_cast<std::size_t>(within ? chosen : c)] = 1;
   }

@@ -13,7 +13,8 @@
 // Parameters::representative_fit, the minimiser is moved onto the quadratic fitted to the ball's
 // points, or, where none fits, replaced by the member nearest to it among the points the cover
 // has covered that no other ball stands at (representative_fit.h; c is always one of them, so
-// no two representatives coincide). Its attributes are those of the member nearest to it. One radius query per ball (re-issued larger
+// no two representatives coincide), that member moved along c's normal onto the quadratic of the
+// members near it where one fits them within the noise (kMemberFitSupport). Its attributes are those of the member nearest to it. One radius query per ball (re-issued larger
 // only if the bracket outgrows it) serves every bisection step and the coverage.
 //
 // Parallel and deterministic: the centres are bucketed into cells of side > 2·cap coloured by the
