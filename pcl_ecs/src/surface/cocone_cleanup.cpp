@@ -1676,15 +1676,34 @@ constexpr double kLayerDistance = 0.5;
 /// Step 7, last part (cocone_detail.h): small pieces and second layers dropped.
 std::vector<Triangle> keepLargeComponents(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& spacing,
                                           const std::vector<Triangle>& out, const std::vector<char>& keep,
-                                          const CoconeParameters& params, CoconeStats& st)
+                                          const CoconeParameters& params, CoconeStats& st,
+                                          const std::vector<std::uint32_t>* side_neighbours)
 {
+  // The kept triangles, renumbered, and the table of the triangles across their sides (after
+  // keepManifold and the filling, at most two triangles share an edge).
   std::vector<Triangle> kept;
+  std::vector<std::uint32_t> index(out.size(), kNone);
   for (std::uint32_t t = 0; t < out.size(); ++t)
     if (keep[t])
+    {
+      index[t] = static_cast<std::uint32_t>(kept.size());
       kept.push_back(out[t]);
+    }
+  std::vector<std::uint32_t> nbr;
+  if (side_neighbours)
+  {
+    nbr.resize(3 * kept.size());
+    for (std::uint32_t t = 0; t < out.size(); ++t)
+      if (index[t] != kNone)
+        for (std::uint32_t k = 0; k < 3; ++k)
+        {
+          const std::uint32_t u = (*side_neighbours)[3 * static_cast<std::size_t>(t) + k];
+          nbr[3 * static_cast<std::size_t>(index[t]) + k] = u == kNone ? kNone : index[u];
+        }
+  }
+  else
+    nbr = sideNeighbours(kept, vertexStars(points.size(), kept));
   UnionFind uf(kept.size());
-  // After keepManifold and the filling, at most two triangles share an edge.
-  const std::vector<std::uint32_t> nbr = sideNeighbours(kept, vertexStars(points.size(), kept));
   for (std::uint32_t t = 0; t < kept.size(); ++t)
     for (std::uint32_t k = 0; k < 3; ++k)
       if (nbr[3 * static_cast<std::size_t>(t) + k] != kNone)
@@ -1809,9 +1828,11 @@ namespace
 /// (1 − cos) of the angles between the normals across the five edges the flip changes (the diagonal
 /// and the quad's four sides), and the new edge is not in the mesh and within the gap guard
 /// (`max_edge_ratio` × the larger spacing of its ends). Each flip lowers that sum over the mesh, so
-/// the flips stop. Deterministic (triangle order). Returns the flips made.
+/// the flips stop. Deterministic (triangle order). Returns the flips made; `nbr` is then the side
+/// neighbour table of the result (as sideNeighbours numbers it).
 std::size_t flipToBendLess(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& spacing,
-                           double guard, std::vector<Triangle>& out, const std::vector<char>& keep)
+                           double guard, std::vector<Triangle>& out, const std::vector<char>& keep,
+                           std::vector<std::uint32_t>& nbr)
 {
   const auto count = static_cast<std::uint32_t>(out.size());
   auto sideOf = [&](std::uint32_t t, std::uint32_t x, std::uint32_t y) -> std::uint32_t {
@@ -1824,8 +1845,9 @@ std::size_t flipToBendLess(const std::vector<Eigen::Vector3d>& points, const std
     return 3;
   };
   // nbr[3 t + k]: the kept triangle across side k of kept triangle t (from out[t][k] to
-  // out[t][k + 1]), kNone on a boundary (or where more than two kept triangles share the edge).
-  std::vector<std::uint32_t> nbr = sideNeighbours(out, vertexStars(points.size(), out, &keep));
+  // out[t][k + 1]), kNone on a boundary (or where more than two kept triangles share the edge);
+  // kept up to date through the flips.
+  nbr = sideNeighbours(out, vertexStars(points.size(), out, &keep));
   auto normal = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
     return (points[b] - points[a]).cross(points[c] - points[a]).normalized().eval();
   };
@@ -1963,8 +1985,9 @@ std::vector<Triangle> cleanUp(const std::vector<Eigen::Vector3d>& points, const 
     st.opened_tunnels = fill.openTunnels(support, cand);
   if (params.watertight)
     st.sealed_loops = fill.closeLoops(fill.holeLoops(std::numeric_limits<std::size_t>::max() - 1), false);
-  st.flipped_edges = flipToBendLess(points, spacing, params.max_edge_ratio, out, keep);
-  return keepLargeComponents(points, spacing, out, keep, params, st);
+  std::vector<std::uint32_t> side_neighbours;
+  st.flipped_edges = flipToBendLess(points, spacing, params.max_edge_ratio, out, keep, side_neighbours);
+  return keepLargeComponents(points, spacing, out, keep, params, st, &side_neighbours);
 }
 
 }  // namespace detail
