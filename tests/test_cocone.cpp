@@ -861,8 +861,10 @@ TEST(CoconeLargeComponents, ASmallClosedPieceLyingOnTheSurfaceIsASecondLayer)
   }
   const std::vector<double> spacing(points.size(), 1.0);
   const std::vector<char> keep(tris.size(), 1);
+  const std::vector<std::uint32_t> nbr = pcl_ecs::surface::detail::sideNeighbours(
+      tris, pcl_ecs::surface::detail::vertexStars(points.size(), tris, &keep));
   pcl_ecs::surface::CoconeStats st;
-  const std::vector<Triangle> kept = keepLargeComponents(points, spacing, tris, keep, CoconeParameters(), st);
+  const std::vector<Triangle> kept = keepLargeComponents(points, spacing, tris, keep, nbr, CoconeParameters(), st);
   EXPECT_EQ(st.dropped_layers, 1u);
   EXPECT_EQ(st.components, 3u);
   ASSERT_EQ(kept.size(), grid_triangles + 20 + 19);
@@ -875,7 +877,7 @@ TEST(CoconeLargeComponents, ASmallClosedPieceLyingOnTheSurfaceIsASecondLayer)
   // the grid (0.1 + 0.2 × 0.85): not every vertex is within it, so it stays.
   pcl_ecs::surface::CoconeStats st2;
   const std::vector<double> tight(points.size(), 0.5);
-  keepLargeComponents(points, tight, tris, keep, CoconeParameters(), st2);
+  keepLargeComponents(points, tight, tris, keep, nbr, CoconeParameters(), st2);
   EXPECT_EQ(st2.dropped_layers, 0u);
 }
 

@@ -1676,8 +1676,8 @@ constexpr double kLayerDistance = 0.5;
 /// Step 7, last part (cocone_detail.h): small pieces and second layers dropped.
 std::vector<Triangle> keepLargeComponents(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& spacing,
                                           const std::vector<Triangle>& out, const std::vector<char>& keep,
-                                          const CoconeParameters& params, CoconeStats& st,
-                                          const std::vector<std::uint32_t>* side_neighbours)
+                                          const std::vector<std::uint32_t>& side_neighbours,
+                                          const CoconeParameters& params, CoconeStats& st)
 {
   // The kept triangles, renumbered, and the table of the triangles across their sides (after
   // keepManifold and the filling, at most two triangles share an edge).
@@ -1689,20 +1689,14 @@ std::vector<Triangle> keepLargeComponents(const std::vector<Eigen::Vector3d>& po
       index[t] = static_cast<std::uint32_t>(kept.size());
       kept.push_back(out[t]);
     }
-  std::vector<std::uint32_t> nbr;
-  if (side_neighbours)
-  {
-    nbr.resize(3 * kept.size());
-    for (std::uint32_t t = 0; t < out.size(); ++t)
-      if (index[t] != kNone)
-        for (std::uint32_t k = 0; k < 3; ++k)
-        {
-          const std::uint32_t u = (*side_neighbours)[3 * static_cast<std::size_t>(t) + k];
-          nbr[3 * static_cast<std::size_t>(index[t]) + k] = u == kNone ? kNone : index[u];
-        }
-  }
-  else
-    nbr = sideNeighbours(kept, vertexStars(points.size(), kept));
+  std::vector<std::uint32_t> nbr(3 * kept.size());
+  for (std::uint32_t t = 0; t < out.size(); ++t)
+    if (index[t] != kNone)
+      for (std::uint32_t k = 0; k < 3; ++k)
+      {
+        const std::uint32_t u = side_neighbours[3 * static_cast<std::size_t>(t) + k];
+        nbr[3 * static_cast<std::size_t>(index[t]) + k] = u == kNone ? kNone : index[u];
+      }
   UnionFind uf(kept.size());
   for (std::uint32_t t = 0; t < kept.size(); ++t)
     for (std::uint32_t k = 0; k < 3; ++k)
@@ -1987,7 +1981,7 @@ std::vector<Triangle> cleanUp(const std::vector<Eigen::Vector3d>& points, const 
     st.sealed_loops = fill.closeLoops(fill.holeLoops(std::numeric_limits<std::size_t>::max() - 1), false);
   std::vector<std::uint32_t> side_neighbours;
   st.flipped_edges = flipToBendLess(points, spacing, params.max_edge_ratio, out, keep, side_neighbours);
-  return keepLargeComponents(points, spacing, out, keep, params, st, &side_neighbours);
+  return keepLargeComponents(points, spacing, out, keep, side_neighbours, params, st);
 }
 
 }  // namespace detail

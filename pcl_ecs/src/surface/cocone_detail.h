@@ -392,13 +392,13 @@ std::vector<char> keepManifold(const std::vector<Triangle>& out, std::size_t n);
 /// layers over the largest one: a closed piece of at most 1% of its triangles whose every vertex
 /// lies within half its local spacing (`spacing`) of the largest piece's triangles (a pocket of a
 /// few samples the hole filling closed beside the surface they lie on; st.dropped_layers counts
-/// them). st.components counts the pieces kept. `side_neighbours`, when given, is
-/// sideNeighbours(out, vertexStars(points.size(), out, &keep)) (numbered like `out`; the clean-up
-/// passes the table its edge flips kept up to date); else it is computed here.
+/// them). st.components counts the pieces kept. `side_neighbours` is
+/// sideNeighbours(out, vertexStars(points.size(), out, &keep)), numbered like `out` (the clean-up
+/// passes the table its edge flips kept up to date).
 std::vector<Triangle> keepLargeComponents(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& spacing,
                                           const std::vector<Triangle>& out, const std::vector<char>& keep,
-                                          const CoconeParameters& params, CoconeStats& st,
-                                          const std::vector<std::uint32_t>* side_neighbours = nullptr);
+                                          const std::vector<std::uint32_t>& side_neighbours,
+                                          const CoconeParameters& params, CoconeStats& st);
 
 /// Step 7: the walked triangles made an oriented 2-manifold (at most two triangles an edge, one
 /// fan a vertex), notches and small holes closed, tunnels opened where `support` (the scan, its
