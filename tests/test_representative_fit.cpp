@@ -8,7 +8,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <limits>
 #include <random>
 
 using namespace pcl_ecs_test;
@@ -239,4 +241,43 @@ TEST(RepresentativeFit, TheResidualTellsACurvedPatchFromACrease)
   std::printf("residual: cap %.4f, crease %.4f (of r)\n", on_cap->residual, on_crease->residual);
   EXPECT_LT(on_cap->residual, pcl_ecs::kCurvedBallFitResidual);
   EXPECT_GT(on_crease->residual, pcl_ecs::kCurvedBallFitResidual);
+}
+
+// The cubic test (kCubicTermsF) on height fields with exact answers: an exact quadratic gives 0 (no
+// gain), an exact cubic an infinite statistic; with noise (σ = 0.002 r, seeded) a quadratic stays
+// far below the threshold and a cubic of amplitude 0.1 r far above it; too few members give 0.
+TEST(RepresentativeFit, TheCubicTestTellsABendTheQuadraticMissesFromNoise)
+{
+  const Eigen::Vector3d n = Eigen::Vector3d(0.1, -0.3, 1.0).normalized();
+  const double r = 1.0, sigma = 0.002;
+  auto quadratic = [](double u, double v) { return 0.2 * u * u - 0.1 * u * v + 0.05 * v; };
+  auto cubic = [&](double u, double v) { return quadratic(u, v) + 0.1 * u * u * u; };
+  auto F = [&](const Ball& b) { return pcl_ecs::cubicTermsF(b.offsets, b.distances, r, n); };
+  EXPECT_EQ(F(ballOn(n, r, quadratic, 15)), 0.0);
+  EXPECT_EQ(F(ballOn(n, r, cubic, 15)), std::numeric_limits<double>::infinity());
+  EXPECT_TRUE(pcl_ecs::bendsBeyondQuadratic(ballOn(n, r, cubic, 15).offsets, ballOn(n, r, cubic, 15).distances, r, n));
+
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, sigma);
+  auto noisy = [&](auto h) {
+    Ball b = ballOn(n, r, h, 15);
+    for (auto& o : b.offsets)
+      o += noise(rng) * n;
+    for (std::size_t j = 0; j < b.offsets.size(); ++j)
+      b.distances[j] = b.offsets[j].norm();
+    return b;
+  };
+  double worst_quadratic = 0.0;
+  for (int trial = 0; trial < 20; ++trial)
+    worst_quadratic = std::max(worst_quadratic, F(noisy(quadratic)));
+  const double on_cubic = F(noisy(cubic));
+  std::printf("F: the noisy quadratic at most %.2f in 20 draws, the noisy cubic %.1f (threshold %.1f)\n",
+              worst_quadratic, on_cubic, pcl_ecs::kCubicTermsF);
+  EXPECT_LT(worst_quadratic, 0.6 * pcl_ecs::kCubicTermsF);
+  EXPECT_GT(on_cubic, 3.0 * pcl_ecs::kCubicTermsF);
+
+  // Fewer than kCubicTestMinPoints members by weight: no evidence.
+  const Ball few = ballOn(n, r, cubic, 5);
+  ASSERT_LT(few.offsets.size(), 25u);
+  EXPECT_EQ(F(few), 0.0);
 }

@@ -291,13 +291,15 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
 
   // The representative on the surface the members describe (representative_fit.h): in smooth
   // balls, and in curved ones that the quadratic fits closely; a large ball's only where the
-  // quadratic fits as closely as the scan's noise.
+  // quadratic fits as closely as the scan's noise and no cubic fits them better (kCubicTermsF).
+  const Eigen::Vector3d nc = in.normals[cs].cast<double>();
   if (params.representative_fit && offset)
-    if (const auto fitted = fitRepresentativeHeight(w.offsets, w.distances, sol.radius, in.normals[cs].cast<double>(),
-                                                    v_offset))
+    if (const auto fitted = fitRepresentativeHeight(w.offsets, w.distances, sol.radius, nc, v_offset))
     {
       if ((smoothQuadric(sol.quadric, kSmoothQuadricRatio) || fitted->residual < kCurvedBallFitResidual) &&
-          fitWithinNoise(fitted->residual, sol.radius, in.neighborhood_radius, in.mean_measure))
+          fitWithinNoise(fitted->residual, sol.radius, in.neighborhood_radius, in.mean_measure) &&
+          !(heldToNoise(sol.radius, in.neighborhood_radius, in.mean_measure) &&
+            bendsBeyondQuadratic(w.offsets, w.distances, sol.radius, nc)))
       {
         RepresentativeFit kept = *fitted;
         // A large ball whose quadratic leaves more than the noise: the height of the quadratic
@@ -306,7 +308,7 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
             fitted->residual * sol.radius > in.mean_measure)
         {
           const double support = kLocalFitSupport * sol.radius;
-          const auto local = fitLocalHeight(w.offsets, sol.radius, in.normals[cs].cast<double>(), v_offset, support);
+          const auto local = fitLocalHeight(w.offsets, sol.radius, nc, v_offset, support);
           if (local && fitWithinNoise(local->residual, sol.radius, in.neighborhood_radius, in.mean_measure))
           {
             kept = *local;
@@ -326,7 +328,6 @@ CoverBall makeBall(const CoverInput& in, const Parameters& params, double error_
       ballAttributes(w.members, w.offsets, w.distances, v_offset, in.normals, c, sol.radius);
   ball.attribute_source = attributes.source;
   ball.normal = attributes.normal;
-  const Eigen::Vector3d nc = in.normals[cs].cast<double>();
 
   // Step 6: cover c and the members projected strictly inside the hull.
   auto claim = [&](int idx) {

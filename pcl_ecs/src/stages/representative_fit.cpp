@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <utility>
 
 namespace pcl_ecs
 {
@@ -16,23 +18,80 @@ namespace
 {
 using Vector6 = Eigen::Matrix<double, 6, 1>;
 
-/// The quadratic's monomials (1, u, v, u², uv, v²) at an offset, (u, v) its tangent coordinates in
-/// the centre's frame (tangent_frame.h) in radii: the fit's basis and its height, in one place.
-/// Radii keep the normal equations well scaled whatever the units.
-class QuadraticBasis
+/// The monomials of a height field in the centre's tangent frame (tangent_frame.h), (u, v) an
+/// offset's tangent coordinates in radii: 1, u, v, u², uv, v² (the quadratic, Terms = 6), then u³,
+/// u²v, uv², v³ (the cubic, Terms = 10). Radii keep the normal equations well scaled whatever the
+/// units.
+template <int Terms>
+class MonomialBasis
 {
 public:
-  QuadraticBasis(const Eigen::Vector3d& normal, double radius) : radius_(radius) { tangentFrame(normal, t1_, t2_); }
-  Vector6 operator()(const Eigen::Vector3d& o) const
+  using Vector = Eigen::Matrix<double, Terms, 1>;
+  MonomialBasis(const Eigen::Vector3d& normal, double radius) : radius_(radius) { tangentFrame(normal, t1_, t2_); }
+  Vector operator()(const Eigen::Vector3d& o) const
   {
     const double u = t1_.dot(o) / radius_, v = t2_.dot(o) / radius_;
-    return (Vector6() << 1.0, u, v, u * u, u * v, v * v).finished();
+    Vector phi;
+    phi.template head<6>() << 1.0, u, v, u * u, u * v, v * v;
+    if constexpr (Terms == 10)
+      phi.template tail<4>() << u * u * u, u * u * v, u * v * v, v * v * v;
+    return phi;
   }
 
 private:
   double radius_;
   Eigen::Vector3d t1_, t2_;
 };
+using QuadraticBasis = MonomialBasis<6>;
+
+/// The weighted least-squares normal equations of the heights along `normal` over a basis:
+/// Σ g φφᵀ, Σ g h φ, Σ g h² (with the solution, the residual), Σ g and Σ g² (the weights'
+/// effective count), and how many members weigh more than 0.
+template <int Terms>
+struct NormalEquations
+{
+  Eigen::Matrix<double, Terms, Terms> matrix = Eigen::Matrix<double, Terms, Terms>::Zero();
+  Eigen::Matrix<double, Terms, 1> rhs = Eigen::Matrix<double, Terms, 1>::Zero();
+  double height_sq = 0.0, weight = 0.0, weight_sq = 0.0;
+  std::size_t weighed = 0;
+};
+
+template <int Terms, class Weight>
+NormalEquations<Terms> accumulate(const std::vector<Eigen::Vector3d>& offsets, const MonomialBasis<Terms>& basis,
+                                  const Eigen::Vector3d& normal, Weight weight)
+{
+  NormalEquations<Terms> e;
+  for (std::size_t j = 0; j < offsets.size(); ++j)
+  {
+    const double g = weight(j);
+    if (!(g > 0.0))
+      continue;
+    ++e.weighed;
+    const auto phi = basis(offsets[j]);
+    const double h = normal.dot(offsets[j]);
+    e.matrix.noalias() += g * phi * phi.transpose();
+    e.rhs += (g * h) * phi;
+    e.height_sq += g * h * h;
+    e.weight += g;
+    e.weight_sq += g * g;
+  }
+  return e;
+}
+
+/// The least-squares coefficients of `e` and their weighted sum of squared residuals,
+/// Σ g (h − φᵀk)² = Σ g h² − kᵀ rhs; nothing when the matrix is rank-deficient.
+template <int Terms>
+std::optional<std::pair<Eigen::Matrix<double, Terms, 1>, double>> solve(const Eigen::Matrix<double, Terms, Terms>& matrix,
+                                                                         const Eigen::Matrix<double, Terms, 1>& rhs,
+                                                                         double height_sq)
+{
+  Eigen::ColPivHouseholderQR<Eigen::Matrix<double, Terms, Terms>> qr(matrix);
+  qr.setThreshold(1e-10);
+  if (qr.rank() < Terms)
+    return std::nullopt;
+  const Eigen::Matrix<double, Terms, 1> k = qr.solve(rhs);
+  return std::pair{k, std::max(0.0, height_sq - k.dot(rhs))};
+}
 
 /// x moved along the normal to `height`: its tangent position at that height.
 Eigen::Vector3d atHeight(const Eigen::Vector3d& x, const Eigen::Vector3d& normal, double height)
@@ -50,37 +109,20 @@ std::optional<RepresentativeFit> fitHeight(const std::vector<Eigen::Vector3d>& o
   if (offsets.size() < kRepresentativeFitMinPoints || !(radius > 0.0))
     return std::nullopt;
   const QuadraticBasis basis(normal, radius);
-  Eigen::Matrix<double, 6, 6> normal_matrix = Eigen::Matrix<double, 6, 6>::Zero();
-  Vector6 rhs = Vector6::Zero();
-  double height_sq = 0.0;  // Σ g h²: with the normal equations, the fit's residual
-  std::size_t weighed = 0;
-  for (std::size_t j = 0; j < offsets.size(); ++j)
-  {
-    const double g = weight(j);
-    if (!(g > 0.0))
-      continue;
-    ++weighed;
-    const Vector6 phi = basis(offsets[j]);
-    const double h = normal.dot(offsets[j]);
-    normal_matrix.noalias() += g * phi * phi.transpose();
-    rhs += (g * h) * phi;
-    height_sq += g * h * h;
-  }
-  if (weighed < least_weighed)
+  const NormalEquations<6> e = accumulate(offsets, basis, normal, weight);
+  if (e.weighed < least_weighed)
     return std::nullopt;
-  Eigen::ColPivHouseholderQR<Eigen::Matrix<double, 6, 6>> qr(normal_matrix);
-  qr.setThreshold(1e-10);
-  if (qr.rank() < 6)
+  const auto solved = solve<6>(e.matrix, e.rhs, e.height_sq);
+  if (!solved)
     return std::nullopt;
-  const Vector6 k = qr.solve(rhs);
+  const Vector6& k = solved->first;
   const double height = k.dot(basis(x));
   if (!std::isfinite(height) || !(std::abs(height) < radius))
     return std::nullopt;
   RepresentativeFit fit;
   fit.offset = atHeight(x, normal, height);
   fit.coefficients = k;
-  // Σ g (h − φᵀk)² = Σ g h² − kᵀ rhs at the least-squares k; Σ g is the (0, 0) entry.
-  fit.residual = std::sqrt(std::max(0.0, height_sq - k.dot(rhs)) / normal_matrix(0, 0)) / radius;
+  fit.residual = std::sqrt(solved->second / e.weight) / radius;
   return fit;
 }
 }  // namespace
@@ -109,6 +151,32 @@ std::optional<RepresentativeFit> fitLocalHeight(const std::vector<Eigen::Vector3
   return fitHeight(offsets, radius, normal, x, kRepresentativeFitMinPoints, [&](std::size_t j) {
     return kernelG((tangentPosition(offsets[j], normal) - at).norm(), support);
   });
+}
+
+double cubicTermsF(const std::vector<Eigen::Vector3d>& offsets, const std::vector<double>& distances, double radius,
+                   const Eigen::Vector3d& normal)
+{
+  if (!(radius > 0.0))
+    return 0.0;
+  const NormalEquations<10> e =
+      accumulate(offsets, MonomialBasis<10>(normal, radius), normal, [&](std::size_t j) { return kernelG(distances[j], radius); });
+  const double effective = e.weight_sq > 0.0 ? e.weight * e.weight / e.weight_sq : 0.0;
+  if (!(effective >= kCubicTestMinPoints))
+    return 0.0;
+  // The quadratic is the cubic's first six terms: its normal equations are the top-left block.
+  const auto cubic = solve<10>(e.matrix, e.rhs, e.height_sq);
+  const auto quadratic =
+      solve<6>(e.matrix.topLeftCorner<6, 6>(), e.rhs.head<6>(), e.height_sq);
+  if (!cubic || !quadratic)
+    return 0.0;
+  const double gain = quadratic->second - cubic->second;
+  // Rounding leaves the sums of an exact fit at about 1e-16 of Σ g h²: below that, no difference.
+  const double floor = 1e-12 * e.height_sq;
+  if (!(gain > floor))
+    return 0.0;
+  if (!(cubic->second > floor))
+    return std::numeric_limits<double>::infinity();  // the cubic is exact, the quadratic is not
+  return (gain / 4.0) / (cubic->second / (effective - 10.0));
 }
 
 Eigen::Vector3d onFittedHeight(const Eigen::Matrix<double, 6, 1>& k, double radius, const Eigen::Vector3d& normal,

@@ -18,7 +18,9 @@
 // about that much. A large ball that keeps its fit but leaves more than the noise around it takes
 // the height from the quadratic fitted to its members near the representative (kLocalFitSupport)
 // where that one fits them within the noise: the whole ball's quadratic keeps a bias of the order
-// of the noise there. A ball fitted by none of these rules is represented by its member nearest to
+// of the noise there. A large ball whose members a cubic fits significantly better than the
+// quadratic keeps no fit (kCubicTermsF): its quadratic misses a bend the noise does not explain.
+// A ball fitted by none of these rules is represented by its member nearest to
 // the minimiser (ball_cover.cpp; the centre when that member lies max_representative_offset × r or
 // farther from it): an input point, on the surface, then moved along the centre's normal onto the
 // quadratic of the members near it when that one fits them within the noise (kMemberFitSupport).
@@ -152,6 +154,24 @@ constexpr double kMemberFitSupport = 0.3;
 /** \brief Fewest members the quadratic is fitted to (twice its six coefficients). */
 constexpr std::size_t kRepresentativeFitMinPoints = 12;
 
+/** \brief A large ball (heldToNoise) whose members a cubic height field fits significantly better
+ * than the quadratic does keeps no fit: cubicTermsF above this. The ball then wraps round a bend
+ * that the quadratic misses by more than the noise averages away (a leg or a trunk of an animal
+ * scan at 1% kept), which the residual test (fitWithinNoise) lets pass when the miss is of the
+ * order of the noise; the member nearest to the optimised point stands for it instead (ball_cover.cpp),
+ * moved onto the quadratic of the members near it where that one fits them (kMemberFitSupport). The
+ * test needs no noise level: on pure noise the four cubic terms take their share of it alone (on
+ * noisy spheres, σ = 0.2% and 0.5% of the radius, no ball's statistic reached 1.6 and no output
+ * changed). Chosen on the tuning half (bench/ab.py: pcd_simplify --target-size at 10%, 3% and 1%,
+ * pcl_ecs_eval) against 2: see docs/METHOD.md 4. Applied to every ball wider than 2 neighbourhood
+ * radii instead, the closed shapes' Cocone meshes at 3% changed topology (the elephant χ −4 → −2,
+ * the spool 2 → 4), as with the residual test there (kFitNoiseMinRadius). */
+constexpr double kCubicTermsF = 3.0;
+
+/** \brief Fewest members, counted by their weights ((Σ g)² / Σ g²), the cubic test takes evidence from
+ * (twice the cubic's ten coefficients). */
+constexpr double kCubicTestMinPoints = 20.0;
+
 /** \brief True when the quadric has one dominant direction: its second eigenvalue is below
  * `cutoff` × its largest. An empty quadric is not smooth. */
 bool smoothQuadric(const Quadric& q, double cutoff);
@@ -173,6 +193,22 @@ struct RepresentativeFit
 std::optional<RepresentativeFit> fitLocalHeight(const std::vector<Eigen::Vector3d>& offsets, double radius,
                                                 const Eigen::Vector3d& normal, const Eigen::Vector3d& x,
                                                 double support);
+
+/** \brief How much better a cubic height field fits the members than the quadratic, both weighted
+ * as fitRepresentativeHeight weights them (G_r of the distance from the centre), in the centre's
+ * tangent frame: the F statistic of the cubic's four extra terms, ((S₂ − S₃) / 4) / (S₃ / (n − 10)),
+ * S the weighted sums of squared residuals and n the weights' effective count (Σ g)² / Σ g². 0 when
+ * n is below kCubicTestMinPoints, either fit is rank-deficient or the cubic fits no better (S₂ − S₃
+ * within 1e-12 of Σ g h², rounding); infinite when the cubic fits exactly and the quadratic does not. */
+double cubicTermsF(const std::vector<Eigen::Vector3d>& offsets, const std::vector<double>& distances, double radius,
+                   const Eigen::Vector3d& normal);
+
+/** \brief Whether a large ball's quadratic misses a bend its members show (kCubicTermsF). */
+inline bool bendsBeyondQuadratic(const std::vector<Eigen::Vector3d>& offsets, const std::vector<double>& distances,
+                                 double radius, const Eigen::Vector3d& normal)
+{
+  return cubicTermsF(offsets, distances, radius, normal) > kCubicTermsF;
+}
 
 /** \brief x's tangent position: x less its component along `normal` (unit). The fits place a
  * point by its tangent position and a height along the centre's normal. */
