@@ -7,6 +7,11 @@ metric the median and the range of new ÷ base. Below 1 the change helps that me
     python3 bench/ab.py --flags "--alpha 9"                       # flags against the defaults
     python3 bench/ab.py --base-build /tmp/old-build               # this build against another
     python3 bench/ab.py --flags "--alpha 9" --only kinect,part --runs --json ab.json
+    python3 bench/ab.py --bar                                     # this build against the peers
+
+--bar runs one side only, at the sizes bench_peers targets (bench/results/peers.json), and prints
+the bar lines docs/RESULTS.md would show with pcl_ecs's rows replaced by those runs (the peers'
+rows as they are in peers.json).
 
 Choose on the tuning half, read on the checking half (docs/RESULTS.md). A run that fails is
 reported and left out of both sides. Takes about 5 minutes a side on a 2-core machine.
@@ -20,16 +25,17 @@ import subprocess
 import sys
 import tempfile
 
-from rules import HALVES, METRICS, RATIOS, ROOT, run
+from rules import HALVES, METRICS, NAMES, RATIOS, ROOT, run
 
 
-def measure(build, flags, data, work, runs):
-    """pcl_ecs_eval's metrics of every (input, ratio) in `runs`; None for a run that failed (its
-    command is printed to stderr)."""
+def measure(build, flags, data, work, runs, sizes=None):
+    """pcl_ecs_eval's metrics of every (input, ratio) in `runs` (at sizes[(input, ratio)] points when
+    given); None for a run that failed (its command is printed to stderr)."""
     scores = {}
     for _, src, mesh, ratio in runs:
         try:
-            scores[(src, ratio)] = run(build, data, work, src, mesh, ratio, flags)
+            size = sizes[(src, ratio)] if sizes else None
+            scores[(src, ratio)] = run(build, data, work, src, mesh, ratio, flags, size)
         except subprocess.CalledProcessError as e:
             scores[(src, ratio)] = None
             print(f"{build}: {src} at {ratio:g} failed (exit {e.returncode}): {' '.join(e.cmd)}", file=sys.stderr)
@@ -59,6 +65,29 @@ def summary(runs, base, new, show_runs):
     return lines
 
 
+def bar(peers, runs, new):
+    """docs/RESULTS.md's bar lines per half, pcl_ecs's rows of `peers` replaced by `new`."""
+    import make_results  # its plots need matplotlib: only --bar reads it
+    entries = []
+    for entry in peers:
+        src = next((s for s, name in NAMES.items() if name == entry["input"]), None)
+        scores = new.get((src, entry["ratio"]))
+        if not scores:
+            continue
+        entry = json.loads(json.dumps(entry))
+        for row in entry["methods"]:
+            if row["method"] == "pcl_ecs":
+                row.pop("error", None)
+                row["size"] = scores["simplified_points"]
+                row.update({k: scores[k] for k, _ in METRICS if scores.get(k) is not None})
+        entries.append(entry)
+    lines = []
+    for half in dict.fromkeys(h for h, _, _, _ in runs):
+        _, summary, _ = make_results.half_table(entries, half)
+        lines += [f"{half} half (ours ÷ best peer):"] + ["  " + line for line in make_results.bar_lines(summary)]
+    return lines
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -71,11 +100,15 @@ def main():
     ap.add_argument("--only", help="only inputs whose file name contains one of these, comma-separated")
     ap.add_argument("--runs", action="store_true", help="print every run's ratio too")
     ap.add_argument("--json", help="write every run's metrics, both sides, to this file")
+    ap.add_argument("--bar", action="store_true",
+                    help="run the new side only, at bench_peers' sizes, and print the bar against the peers")
+    ap.add_argument("--peers", default=os.path.join(ROOT, "bench", "results", "peers.json"),
+                    help="the peers' rows for --bar (bench_peers' output)")
     ap.add_argument("--data", default=os.environ.get("PCL_ECS_SHARED_DATA_DIR", os.path.join(ROOT, "..", "shared", "data")))
     args = ap.parse_args()
     base_build = args.base_build or args.build
-    if base_build == args.build and args.flags == args.base_flags:
-        ap.error("nothing to compare: give --flags, --base-flags or --base-build")
+    if not args.bar and base_build == args.build and args.flags == args.base_flags:
+        ap.error("nothing to compare: give --flags, --base-flags or --base-build (or --bar)")
     for build in {args.build, base_build}:
         for tool in ("pcd_simplify", "pcl_ecs_eval"):
             if not os.access(os.path.join(build, "tools", tool), os.X_OK):
@@ -90,6 +123,24 @@ def main():
             if not only or any(o in src for o in only)]
     if not runs:
         ap.error("no shared input matches --only")
+    if args.bar:
+        try:
+            with open(args.peers) as f:
+                peers = json.load(f)
+        except (OSError, ValueError) as e:
+            ap.error(f"--bar needs the peers' rows: {args.peers}: {e}")
+        sizes = {(src, e["ratio"]): e["target"] for e in peers for src, name in NAMES.items() if name == e["input"]}
+        runs = [run_ for run_ in runs if (run_[1], run_[3]) in sizes]
+        if not runs:
+            ap.error(f"no run of these halves and ratios is in {args.peers}")
+        with tempfile.TemporaryDirectory() as work:
+            new = measure(args.build, shlex.split(args.flags), args.data, work, runs, sizes)
+        print("\n".join(bar(peers, runs, new)))
+        if args.json:
+            with open(args.json, "w") as f:
+                json.dump([{"input": src, "half": h, "ratio": r, "size": sizes[(src, r)], "new": new[(src, r)]}
+                           for h, src, _, r in runs], f, indent=1)
+        return
     with tempfile.TemporaryDirectory() as work:
         base = measure(base_build, shlex.split(args.base_flags), args.data, work, runs)
         new = measure(args.build, shlex.split(args.flags), args.data, work, runs)

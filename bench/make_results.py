@@ -302,7 +302,8 @@ def main():
              "defaults are chosen on the tuning half, and the bar is read on the checking half. A change of",
              "your own, measured the same way on both halves (pcl_ecs against itself, no peers):",
              "`python3 bench/ab.py --flags \"--alpha 9\"` (flags against the defaults) or",
-             "`python3 bench/ab.py --base-build DIR` (this build against another).",
+             "`python3 bench/ab.py --base-build DIR` (this build against another); this build's bar against",
+             "the peers' rows of `bench/results/peers.json`, without running the peers: `python3 bench/ab.py --bar`.",
              "",
              "| half | inputs |",
              "| --- | --- |"]

@@ -30,6 +30,14 @@ HALVES = {
                  ("kinect_capture0001.pcd", None), ("face_model.pcd", None), ("region_growing_rgb.pcd", None),
                  ("rops_points.pcd", None)],
 }
+# The name bench_peers.cpp (sharedInputs) gives each file: an entry's "input" in bench/results/peers.json.
+NAMES = {"bunny.pcd": "bunny", "fandisk_scan.pcd": "fandisk", "bun000_rangescan.pcd": "bun000",
+         "table_scene_mug_organized.pcd": "mug", "terrain_csite1_utm.pcd": "terrain", "pinion_scan.pcd": "pinion",
+         "turbine_scan.pcd": "turbine", "spot_scan.pcd": "spot", "fertility_scan.pcd": "fertility",
+         "room_scan2.pcd": "room", "joint_scan.pcd": "joint", "spool_scan.pcd": "spool", "part_scan.pcd": "part",
+         "camelhead_scan.pcd": "camelhead", "elephant_scan.pcd": "elephant", "terrain_csite2_utm.pcd": "terrain2",
+         "kinect_capture0001.pcd": "kinect", "face_model.pcd": "face", "region_growing_rgb.pcd": "region_rgb",
+         "rops_points.pcd": "rops"}
 # Each rule and the flags that switch it back to the paper's (or off).
 RULES = [
     ("representative fit (METHOD.md 4)", ["--no-rep-fit"]),
@@ -44,10 +52,13 @@ METRICS = [("surface_rms", "surface RMS"), ("tangent_rms", "tangent RMS"), ("cov
 RATIOS = (0.1, 0.03, 0.01)
 
 
-def run(build, data, work, src, mesh, ratio, flags):
+def run(build, data, work, src, mesh, ratio, flags, size=None):
+    """pcd_simplify at `ratio` kept (of the points less coincident ones), or at `size` points when given,
+    scored by pcl_ecs_eval."""
     out = os.path.join(work, "out.pcd")
-    subprocess.run([os.path.join(build, "tools", "pcd_simplify"), os.path.join(data, src), out,
-                    "--target-ratio", str(ratio), "--quiet"] + flags, check=True, stderr=subprocess.DEVNULL)
+    target = ["--target-size", str(size)] if size else ["--target-ratio", str(ratio)]
+    subprocess.run([os.path.join(build, "tools", "pcd_simplify"), os.path.join(data, src), out]
+                   + target + ["--quiet"] + flags, check=True, stderr=subprocess.DEVNULL)
     cmd = [os.path.join(build, "tools", "pcl_ecs_eval"), os.path.join(data, src), out, "--json"]
     if mesh:
         cmd += ["--mesh", os.path.join(data, mesh)]
