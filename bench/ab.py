@@ -65,9 +65,9 @@ def summary(runs, base, new, show_runs):
     return lines
 
 
-def bar(peers, runs, new):
-    """docs/RESULTS.md's bar lines per half, pcl_ecs's rows of `peers` replaced by `new`."""
-    import make_results  # its plots need matplotlib: only --bar reads it
+def bar(make_results, peers, runs, new):
+    """docs/RESULTS.md's bar lines per half (make_results' reading), pcl_ecs's rows of `peers` replaced
+    by `new`."""
     entries = []
     for entry in peers:
         src = next((s for s, name in NAMES.items() if name == entry["input"]), None)
@@ -125,6 +125,11 @@ def main():
         ap.error("no shared input matches --only")
     if args.bar:
         try:
+            import make_results  # noqa: E402 (its plots need matplotlib: only --bar reads it)
+        except ImportError as e:
+            ap.error(f"--bar reads bench/make_results.py, which needs {e.name}: run it with bench/.venv/bin/python "
+                     "(bash bench/run_peers.sh makes it) or pip install -r bench/requirements.txt")
+        try:
             with open(args.peers) as f:
                 peers = json.load(f)
         except (OSError, ValueError) as e:
@@ -135,7 +140,7 @@ def main():
             ap.error(f"no run of these halves and ratios is in {args.peers}")
         with tempfile.TemporaryDirectory() as work:
             new = measure(args.build, shlex.split(args.flags), args.data, work, runs, sizes)
-        print("\n".join(bar(peers, runs, new)))
+        print("\n".join(bar(make_results, peers, runs, new)))
         if args.json:
             with open(args.json, "w") as f:
                 json.dump([{"input": src, "half": h, "ratio": r, "size": sizes[(src, r)], "new": new[(src, r)]}
